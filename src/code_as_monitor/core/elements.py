@@ -1,0 +1,171 @@
+"""Constraint elements: the compact geometric abstraction (points, lines, surfaces) the monitor reasons on.
+
+All points are in the world frame, metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from code_as_monitor.core.errors import ElementError
+
+# Distinct, readable colours (RGB uint8) for element ids 0, 1, 2, ... (cycled).
+PALETTE: tuple[tuple[int, int, int], ...] = (
+    (230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180),
+    (70, 240, 240), (240, 50, 230), (210, 245, 60), (250, 190, 212), (0, 128, 128),
+    (220, 190, 255), (170, 110, 40), (255, 250, 200), (128, 0, 0), (170, 255, 195),
+    (128, 128, 0), (255, 215, 180), (0, 0, 128), (255, 225, 25), (128, 128, 128),
+)
+
+
+class ElementKind(str, Enum):
+    """Kind of a constraint element and the number of points it carries."""
+
+    POINT = "point"  # 1 point
+    LINE = "line"  # 2 points: the ends along the principal axis
+    SURFACE = "surface"  # 3 or 4 non-collinear points spanning the fitted plane
+
+    @classmethod
+    def parse(cls, value: str | ElementKind) -> ElementKind:
+        """Parse ``value``; raise ElementError naming it when it is not a kind."""
+        if isinstance(value, ElementKind):
+            return value
+        try:
+            return cls(str(value).strip().lower())
+        except ValueError:
+            raise ElementError(
+                f"unknown element kind {value!r}; expected one of: point, line, surface"
+            ) from None
+
+    @property
+    def min_points(self) -> int:
+        return {"point": 1, "line": 2, "surface": 3}[self.value]
+
+    @property
+    def max_points(self) -> int:
+        return {"point": 1, "line": 2, "surface": 4}[self.value]
+
+
+@dataclass(frozen=True)
+class ElementSpec:
+    """What an element should abstract: a part of an object, as a kind.
+
+    Attributes:
+        name: short name used in the legend and code comments ("red block top", "pen axis").
+        obj: object name in the scene ("red_block", "teapot", "robot").
+        part: part name ("" for the whole object; "top", "spout", "tip", ...).
+        kind: the element kind.
+    """
+
+    name: str
+    obj: str
+    part: str = ""
+    kind: ElementKind = ElementKind.POINT
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", ElementKind.parse(self.kind))
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "obj": self.obj, "part": self.part, "kind": self.kind.value}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> ElementSpec:
+        return cls(d["name"], d["obj"], d.get("part", ""), ElementKind.parse(d.get("kind", "point")))
+
+
+@dataclass
+class Element:
+    """One constraint element.
+
+    Attributes:
+        id: the number drawn on the images; stable within a subgoal.
+        name: legend name.
+        kind: point | line | surface.
+        points: (k, 3) world frame, metres; k = 1 (point), 2 (line), 3-4 (surface).
+        owner: (object, part) it abstracts.
+        color: (3,) RGB uint8 used to draw it.
+    """
+
+    id: int
+    name: str
+    kind: ElementKind
+    points: np.ndarray
+    owner: tuple[str, str] = ("", "")
+    color: tuple[int, int, int] = field(default=(255, 255, 255))
+
+    def __post_init__(self) -> None:
+        self.kind = ElementKind.parse(self.kind)
+        pts = np.asarray(self.points, dtype=np.float64)
+        if pts.ndim == 1 and pts.shape == (3,):
+            pts = pts[None]
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise ElementError(f"element {self.name!r}: points must be (k, 3), got {pts.shape}")
+        k = pts.shape[0]
+        if not self.kind.min_points <= k <= self.kind.max_points:
+            raise ElementError(
+                f"element {self.name!r}: a {self.kind.value} needs {self.kind.min_points}"
+                f"-{self.kind.max_points} points, got {k}"
+            )
+        if not np.all(np.isfinite(pts)):
+            raise ElementError(f"element {self.name!r}: points contain NaN or inf")
+        if self.kind is ElementKind.LINE and np.linalg.norm(pts[1] - pts[0]) < 1e-9:
+            raise ElementError(f"element {self.name!r}: line end points coincide")
+        if self.kind is ElementKind.SURFACE:
+            centred = pts - pts.mean(axis=0)
+            sv = np.linalg.svd(centred, compute_uv=False)
+            if sv.shape[0] < 2 or sv[1] < 1e-9:
+                raise ElementError(f"element {self.name!r}: surface points are collinear")
+        self.points = pts
+
+    # --- constructors -------------------------------------------------------------------------
+    @classmethod
+    def point(cls, id: int, name: str, p: np.ndarray, owner: tuple[str, str] = ("", ""), **kw) -> Element:
+        """A point element at ``p`` (3,), world metres."""
+        return cls(id, name, ElementKind.POINT, np.asarray(p, dtype=np.float64).reshape(1, 3), owner, **_col(id, kw))
+
+    @classmethod
+    def line(
+        cls, id: int, name: str, p0: np.ndarray, p1: np.ndarray, owner: tuple[str, str] = ("", ""), **kw
+    ) -> Element:
+        """A line element from ``p0`` to ``p1`` (3,) each, world metres."""
+        return cls(id, name, ElementKind.LINE, np.stack([p0, p1]).astype(np.float64), owner, **_col(id, kw))
+
+    @classmethod
+    def surface(cls, id: int, name: str, pts: np.ndarray, owner: tuple[str, str] = ("", ""), **kw) -> Element:
+        """A surface element from 3-4 non-collinear points (k, 3), world metres, in boundary order."""
+        return cls(id, name, ElementKind.SURFACE, np.asarray(pts, dtype=np.float64), owner, **_col(id, kw))
+
+    def centroid(self) -> np.ndarray:
+        """(3,) mean of the element's points."""
+        return self.points.mean(axis=0)
+
+    def to_dict(self) -> dict:
+        return {
+            "id": self.id,
+            "name": self.name,
+            "kind": self.kind.value,
+            "points": self.points.round(5).tolist(),
+            "owner": list(self.owner),
+            "color": list(self.color),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Element:
+        return cls(
+            int(d["id"]), d["name"], ElementKind.parse(d["kind"]), np.array(d["points"]),
+            tuple(d.get("owner", ("", ""))), tuple(d.get("color", (255, 255, 255))),
+        )
+
+
+def color_for(element_id: int) -> tuple[int, int, int]:
+    """The palette colour for an element id."""
+    return PALETTE[element_id % len(PALETTE)]
+
+
+def _col(id: int, kw: dict) -> dict:
+    kw = dict(kw)
+    kw.setdefault("color", color_for(id))
+    return kw

@@ -1,0 +1,100 @@
+"""What the agent sees each frame: multi-view RGB-D images, cameras and robot state.
+
+Nothing here knows about the simulator: a real robot fills the same containers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from code_as_monitor.core.camera import CameraModel
+from code_as_monitor.core.errors import ShapeMismatchError
+
+
+@dataclass
+class View:
+    """One camera's frame.
+
+    Attributes:
+        rgb: (H, W, 3) uint8.
+        depth: (H, W) float32 metres; 0 or NaN means "no reading".
+        camera: the calibrated camera that took it.
+        seg: optional (H, W) int32 segmentation id image (simulator ground truth, or a real
+            segmenter's output); ids are decoded by ``seg_labels``.
+        seg_labels: optional map from a seg id to ``(object name, part name)``; the part name is
+            ``""`` for the whole-object id. This is how part-level masks reach the painter without
+            the painter importing the simulator.
+    """
+
+    rgb: np.ndarray
+    depth: np.ndarray
+    camera: CameraModel
+    seg: np.ndarray | None = None
+    seg_labels: dict[int, tuple[str, str]] | None = None
+
+    def __post_init__(self) -> None:
+        if self.rgb.ndim != 3 or self.rgb.shape[2] != 3:
+            raise ShapeMismatchError(f"view {self.camera.name!r}: rgb must be (H, W, 3), got {self.rgb.shape}")
+        hw = self.rgb.shape[:2]
+        if self.depth.shape != hw:
+            raise ShapeMismatchError(
+                f"view {self.camera.name!r}: depth shape {self.depth.shape} != rgb shape {hw}"
+            )
+        if hw != (self.camera.height, self.camera.width):
+            raise ShapeMismatchError(
+                f"view {self.camera.name!r}: image {hw} does not match camera "
+                f"{(self.camera.height, self.camera.width)}"
+            )
+        if self.seg is not None and self.seg.shape != hw:
+            raise ShapeMismatchError(f"view {self.camera.name!r}: seg shape {self.seg.shape} != {hw}")
+
+    def mask_of(self, obj: str, part: str = "") -> np.ndarray:
+        """(H, W) bool mask of object ``obj`` (all its parts when ``part`` is empty) or of one part."""
+        if self.seg is None or self.seg_labels is None:
+            return np.zeros(self.depth.shape, dtype=bool)
+        ids = [i for i, (o, p) in self.seg_labels.items() if o == obj and (not part or p == part)]
+        return np.isin(self.seg, ids) if ids else np.zeros(self.depth.shape, dtype=bool)
+
+
+@dataclass
+class RobotState:
+    """Robot state at one frame.
+
+    Attributes:
+        ee_pose: (4, 4) end-effector pose in the world frame (forward kinematics), metres.
+        gripper: gripper/suction state: 1.0 closed or suction on, 0.0 open or off.
+        ee_kind: "suction", "spatula", "gripper", ...
+        ee_points: named end-effector points (3,) in the world frame, e.g. {"tip": ...}; forward
+            kinematics gives these directly, so the painter need not segment the end-effector.
+        joints: (n,) joint positions, radians (or metres for prismatic joints).
+    """
+
+    ee_pose: np.ndarray
+    gripper: float = 0.0
+    ee_kind: str = "suction"
+    ee_points: dict[str, np.ndarray] = field(default_factory=dict)
+    joints: np.ndarray | None = None
+
+
+@dataclass
+class Observation:
+    """Everything the monitor sees at time ``t``.
+
+    Attributes:
+        t: seconds, monotonic (sim time in the simulator, a robot clock on hardware).
+        views: view name -> :class:`View`.
+        robot: the robot's state, or None when there is no robot model.
+        objects: names of the objects in the scene (what a scene graph or the task config knows);
+            used by the planner to ground the instruction.
+    """
+
+    t: float
+    views: dict[str, View]
+    robot: RobotState | None = None
+    objects: list[str] = field(default_factory=list)
+
+    @property
+    def view_names(self) -> list[str]:
+        return list(self.views)

@@ -1,0 +1,106 @@
+"""Choice registry for swappable stages.
+
+Every swappable stage (segmenter, tracker, VLM backend, executor, baseline, task, disturbance) has a
+config base class that derives from :class:`Choice`. Each backend registers its config dataclass by
+name, and the CLI or Python picks it by that name::
+
+    @dataclass
+    class TrackerConfig(Choice):
+        ...
+
+    @TrackerConfig.register("lk")
+    @dataclass
+    class LKTrackerConfig(TrackerConfig):
+        window: int = 21
+
+    cfg = TrackerConfig.from_name("lk", window=15)
+
+Implementations are imported lazily by the factory that builds them from a config, so importing a
+config module never imports an optional dependency.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar, TypeVar
+
+from code_as_monitor.core.errors import ConfigError, UnknownChoiceError
+
+C = TypeVar("C", bound="Choice")
+
+
+class Choice:
+    """Base of every registered config. Subclass once per stage, then register backends on it."""
+
+    _registry: ClassVar[dict[str, type[Choice]]]
+    name: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        # A direct subclass of Choice is a stage: it owns a fresh registry.
+        if Choice in cls.__bases__:
+            cls._registry = {}
+
+    @classmethod
+    def register(cls, name: str):  # noqa: ANN206 - decorator
+        """Class decorator registering a config subclass under ``name`` on this stage."""
+
+        def deco(sub: type[C]) -> type[C]:
+            if not issubclass(sub, cls):
+                raise ConfigError(f"{sub.__name__} does not derive from {cls.__name__}")
+            if name in cls._registry and cls._registry[name] is not sub:
+                raise ConfigError(f"{cls.__name__}: name {name!r} is already registered")
+            sub.name = name
+            cls._registry[name] = sub
+            return sub
+
+        return deco
+
+    @classmethod
+    def choices(cls) -> list[str]:
+        """Registered names, sorted."""
+        return sorted(cls._registry)
+
+    @classmethod
+    def get_class(cls: type[C], name: str) -> type[C]:
+        """The config class registered as ``name``; raises :class:`UnknownChoiceError` naming the choices."""
+        try:
+            return cls._registry[name]  # type: ignore[return-value]
+        except KeyError:
+            raise UnknownChoiceError(
+                f"unknown {cls.__name__} {name!r}; choose one of: {', '.join(cls.choices()) or '(none)'}"
+            ) from None
+
+    @classmethod
+    def from_name(cls: type[C], name: str, **kwargs: Any) -> C:
+        """Build the config registered as ``name`` with ``kwargs``; unknown fields are a ConfigError."""
+        sub = cls.get_class(name)
+        if dataclasses.is_dataclass(sub):
+            fields = {f.name for f in dataclasses.fields(sub)}
+            bad = sorted(set(kwargs) - fields)
+            if bad:
+                raise ConfigError(
+                    f"{name}: unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(fields))}"
+                )
+        return sub(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable dict of the config, with its registered name under ``"name"``."""
+        out: dict[str, Any] = {"name": type(self).name}
+        if dataclasses.is_dataclass(self):
+            out.update(dataclasses.asdict(self))
+        return out
+
+
+def check_positive(owner: str, field: str, value: float, allow_zero: bool = False) -> None:
+    """Raise ConfigError naming ``owner.field`` when ``value`` is not positive (or non-negative)."""
+    ok = value >= 0 if allow_zero else value > 0
+    if not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ConfigError(f"{owner}.{field} must be {bound}, got {value!r}")
+
+
+def check_probability(owner: str, field: str, value: float) -> None:
+    """Raise ConfigError naming ``owner.field`` when ``value`` is not in [0, 1]."""
+    if not 0.0 <= value <= 1.0:
+        raise ConfigError(f"{owner}.{field} must be in [0, 1], got {value!r}")
