@@ -5,6 +5,7 @@ from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal,
 from code_as_monitor.core.elements import Element, ElementKind, ElementSpec, color_for
 from code_as_monitor.core.errors import CamError
 from code_as_monitor.core.observation import Observation, RobotState, View
+from code_as_monitor.core.policy import Policy
 from code_as_monitor.core.registry import Choice
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "ElementSpec",
     "Observation",
     "Phase",
+    "Policy",
     "RobotState",
     "Subgoal",
     "Verdict",

@@ -88,12 +88,16 @@ class Observation:
         robot: the robot's state, or None when there is no robot model.
         objects: names of the objects in the scene (what a scene graph or the task config knows);
             used by the planner to ground the instruction.
+        object_poses: ground-truth (4, 4) world poses by object name (part poses as "obj/part").
+            Only a simulator fills this (for the `sim` oracle tracker and for evaluation); None on a
+            real robot. The monitor never needs it.
     """
 
     t: float
     views: dict[str, View]
     robot: RobotState | None = None
     objects: list[str] = field(default_factory=list)
+    object_poses: dict[str, np.ndarray] | None = None
 
     @property
     def view_names(self) -> list[str]:

@@ -42,7 +42,7 @@ class Choice:
             cls._registry = {}
 
     @classmethod
-    def register(cls, name: str):  # noqa: ANN206 - decorator
+    def register(cls, name: str):
         """Class decorator registering a config subclass under ``name`` on this stage."""
 
         def deco(sub: type[C]) -> type[C]:
