@@ -1,1 +1,1 @@
-"""agent layer."""
+"""Layer 5: the closed loop around any policy."""

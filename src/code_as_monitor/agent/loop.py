@@ -1,0 +1,355 @@
+"""The closed loop: planner + painter + monitor around any open-loop policy.
+
+Per subgoal: plan (VLM call 1) -> paint elements -> write monitor code (VLM call 2, plus bounded
+regenerations on validation/coverage errors) -> start the policy. Every frame: track elements,
+evaluate every check in the sandbox. A violated ``during`` check halts the policy and its reason
+becomes the planner's feedback; all ``upon`` checks satisfied completes the subgoal (halting a
+still-moving policy early); a policy that finishes with an ``upon`` check false is a reactive failure.
+The agent knows nothing of the simulator: it sees an :class:`Environment` and a
+:class:`~code_as_monitor.core.policy.Policy`.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
+from code_as_monitor.core.elements import Element
+from code_as_monitor.core.errors import ConfigError, PerceptionError, ProgramError, VLMError
+from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.policy import Policy
+
+log = logging.getLogger(__name__)
+
+
+class Environment(Protocol):
+    """What the agent needs from the world (a simulator or a robot driver)."""
+
+    @property
+    def t(self) -> float:
+        """Current time, seconds (sim time in the simulator)."""
+        ...
+
+    def observe(self) -> Observation:
+        """Render/grab one multi-view RGB-D frame."""
+        ...
+
+
+@dataclass
+class AgentConfig:
+    """Closed-loop settings.
+
+    Attributes:
+        frame_hz: monitoring rate (frames per second of environment time).
+        max_replans: failed subgoals allowed before giving up.
+        max_subgoals: hard bound on subgoals per episode.
+        time_limit_s: episode time limit (environment seconds); None for none.
+        history_len: frames of element history fed to the program as H.
+        code_retries: regenerations allowed when validation or path coverage fails.
+        halt_on_upon: halt a still-moving policy as soon as every upon check holds.
+        upon_dwell_frames: consecutive frames the upon checks must hold before completing.
+    """
+
+    frame_hz: float = 10.0
+    max_replans: int = 8
+    max_subgoals: int = 24
+    time_limit_s: float | None = None
+    history_len: int = 64
+    code_retries: int = 2
+    halt_on_upon: bool = True
+    upon_dwell_frames: int = 2
+
+    def __post_init__(self) -> None:
+        if self.frame_hz <= 0:
+            raise ConfigError(f"AgentConfig.frame_hz must be > 0, got {self.frame_hz!r}")
+        if self.max_replans < 0:
+            raise ConfigError(f"AgentConfig.max_replans must be >= 0, got {self.max_replans!r}")
+        if self.history_len < 2:
+            raise ConfigError(f"AgentConfig.history_len must be >= 2, got {self.history_len!r}")
+
+
+@dataclass
+class Alarm:
+    """A violation the monitor raised (what the benchmark scores against ground truth)."""
+
+    t: float
+    constraint_id: str
+    phase: str
+    proactive: bool
+    reason: str
+    subgoal: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+@dataclass
+class SubgoalRecord:
+    text: str
+    skill: str
+    outcome: str  # "success" | "violated" | "reactive_failure" | "timeout" | "error"
+    reason: str
+    t_start: float
+    t_end: float
+    code_attempts: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+@dataclass
+class EpisodeLog:
+    """What happened in one closed-loop episode."""
+
+    instruction: str
+    subgoals: list[SubgoalRecord] = field(default_factory=list)
+    alarms: list[Alarm] = field(default_factory=list)
+    finished: bool = False  # the planner said the task is complete
+    stop_reason: str = ""
+    t_end: float = 0.0
+    replans: int = 0
+    programs: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "instruction": self.instruction,
+            "subgoals": [s.to_dict() for s in self.subgoals],
+            "alarms": [a.to_dict() for a in self.alarms],
+            "finished": self.finished,
+            "stop_reason": self.stop_reason,
+            "t_end": self.t_end,
+            "replans": self.replans,
+        }
+
+
+EventFn = Callable[..., Any]
+FrameFn = Callable[[Observation, list[Element], dict[int, np.ndarray], list[Verdict], str], None]
+
+
+def _noop_event(kind: str, **fields: Any) -> None:
+    return None
+
+
+class Agent:
+    """Closes the loop around a policy.
+
+    Args:
+        planner: ``next_subgoal(instruction, images, objects, previous, feedback) -> Subgoal``.
+        coder: ``write_program(subgoal, elements, images, check, max_retries, feedback) -> str``.
+        painter: :class:`~code_as_monitor.painter.Painter`.
+        tracker: ``reset(obs, elements)``, ``step(obs) -> TrackResult``, ``set_reacquire(fn)``.
+        runtime_factory: builds a monitor runtime (``start``/``step``/``close``).
+        history_factory: builds an element history with ``push(t, points)``/``arrays()``.
+        on_event: ``fn(kind, **fields)`` for the event log (flushed by the caller's writer).
+        on_frame: called every monitored frame (for videos and live views).
+    """
+
+    def __init__(
+        self,
+        planner: Any,
+        coder: Any,
+        painter: Any,
+        tracker: Any,
+        runtime: Any,
+        history_factory: Callable[[int], Any],
+        config: AgentConfig | None = None,
+        on_event: EventFn | None = None,
+        on_frame: FrameFn | None = None,
+        on_prompt: Callable[[int, Subgoal, dict[str, np.ndarray], str], None] | None = None,
+    ) -> None:
+        self.planner = planner
+        self.coder = coder
+        self.painter = painter
+        self.tracker = tracker
+        self.runtime = runtime
+        self.history_factory = history_factory
+        self.cfg = config or AgentConfig()
+        self.emit = on_event or _noop_event
+        self.on_frame = on_frame
+        self.on_prompt = on_prompt
+
+    # ------------------------------------------------------------------------------------------
+    def run(self, instruction: str, env: Environment, policy: Policy) -> EpisodeLog:
+        """Run the task until the planner says it is complete, replans run out, or time is up."""
+        ep = EpisodeLog(instruction)
+        previous: Subgoal | None = None
+        feedback: str | None = None
+        self.emit("episode_start", t=env.t, instruction=instruction)
+        for index in range(self.cfg.max_subgoals):
+            if self._out_of_time(env):
+                ep.stop_reason = "time limit"
+                break
+            obs = env.observe()
+            images = {n: v.rgb for n, v in obs.views.items()}
+            try:
+                subgoal = self.planner.next_subgoal(instruction, images, obs.objects, previous, feedback)
+            except VLMError as exc:
+                ep.stop_reason = f"planner failed: {exc}"
+                self.emit("planner_error", t=env.t, error=str(exc))
+                break
+            if subgoal.done:
+                ep.finished = True
+                ep.stop_reason = "planner: task complete"
+                self.emit("task_complete", t=env.t)
+                break
+            self.emit("subgoal", t=env.t, index=index, subgoal=subgoal.to_dict())
+            record = self._run_subgoal(index, subgoal, obs, env, policy, ep)
+            ep.subgoals.append(record)
+            self.emit("subgoal_end", t=env.t, **record.to_dict())
+            previous = subgoal
+            if record.outcome == "success":
+                feedback = f"success: {record.reason}" if record.reason else "success"
+            else:
+                feedback = f"failure: {record.reason}"
+                ep.replans += 1
+                if ep.replans > self.cfg.max_replans:
+                    ep.stop_reason = f"too many re-plans ({ep.replans})"
+                    break
+            if record.outcome == "timeout":
+                ep.stop_reason = "time limit"
+                break
+        else:
+            ep.stop_reason = f"subgoal bound ({self.cfg.max_subgoals}) reached"
+        ep.t_end = env.t
+        self.emit("episode_end", t=env.t, finished=ep.finished, stop_reason=ep.stop_reason, replans=ep.replans)
+        return ep
+
+    # ------------------------------------------------------------------------------------------
+    def _out_of_time(self, env: Environment) -> bool:
+        return self.cfg.time_limit_s is not None and env.t >= self.cfg.time_limit_s
+
+    def _run_subgoal(
+        self, index: int, subgoal: Subgoal, obs: Observation, env: Environment, policy: Policy, ep: EpisodeLog
+    ) -> SubgoalRecord:
+        t0 = env.t
+        skill = subgoal.action.skill if subgoal.action else ""
+
+        def rec(outcome: str, reason: str, attempts: int = 0) -> SubgoalRecord:
+            return SubgoalRecord(subgoal.text, skill, outcome, reason, t0, env.t, attempts)
+
+        # Paint.
+        painted = self.painter.paint(obs, subgoal)
+        for m in painted.missing:
+            self.emit("element_missing", t=env.t, spec=m.to_dict())
+        self.emit("elements", t=env.t, legend=painted.legend(), seconds=painted.seconds)
+        if painted.missing:
+            names = ", ".join(f"{s.obj}/{s.part}" if s.part else s.obj for s in painted.missing)
+            return rec("error", f"cannot see {names}")
+        elements = painted.elements
+        positions = {e.id: e.points for e in elements}
+        history = self.history_factory(self.cfg.history_len)
+        history.push(obs.t, positions)
+
+        # Code, validated statically and by path coverage on the current state.
+        attempts = {"n": 0}
+
+        def check(source: str) -> None:
+            attempts["n"] += 1
+            H, ht = history.arrays()
+            self.runtime.start(source, subgoal.constraints, positions, H, ht, obs.t)
+
+        try:
+            source = self.coder.write_program(
+                subgoal, elements, painted.images, check=check, max_retries=self.cfg.code_retries
+            )
+        except (ProgramError, VLMError) as exc:
+            self.emit("program_rejected", t=env.t, error=str(exc))
+            return rec("error", f"no valid monitor program: {exc}", attempts["n"])
+        ep.programs.append(source)
+        self.emit("program", t=env.t, index=index, source=source, attempts=attempts["n"])
+        if self.on_prompt is not None:
+            self.on_prompt(index, subgoal, painted.images, source)
+
+        # Execute and monitor.
+        self.tracker.reset(obs, elements)
+        self.tracker.set_reacquire(
+            lambda o, el: self.painter.build_element(o, el.id, painted.specs[el.id])
+        )
+        period = 1.0 / self.cfg.frame_hz
+        next_frame = env.t + period
+        upon = subgoal.upon()
+        upon_streak = 0
+        policy.start(subgoal.action)  # type: ignore[arg-type]
+        self.emit("policy_start", t=env.t, action=subgoal.action.to_dict() if subgoal.action else None)
+        while True:
+            policy.step()
+            done = policy.done
+            if env.t + 1e-9 < next_frame and not done:
+                continue
+            next_frame += period
+            try:
+                verdicts, view_state = self._monitor_frame(env, elements, history)
+            except PerceptionError as exc:
+                policy.halt()
+                return rec("error", f"perception failed: {exc}", attempts["n"])
+            violated = [v for v in verdicts if v.phase is Phase.DURING and not v.ok and not v.fault]
+            upon_v = [v for v in verdicts if v.phase is Phase.UPON and not v.fault]
+            faults = [v for v in verdicts if v.fault]
+            for v in faults:
+                self.emit("program_fault", t=v.t, constraint_id=v.constraint_id, reason=v.reason)
+            upon_ok = bool(upon) and len(upon_v) == len(upon) and all(v.ok for v in upon_v)
+            upon_streak = upon_streak + 1 if upon_ok else 0
+            banner = ""
+            if violated:
+                v = violated[0]
+                banner = f"VIOLATION {v.constraint_id}: {v.reason}"
+                self._alarm(ep, subgoal, v)
+                policy.halt()
+                self._frame(view_state, verdicts, banner)
+                return rec("violated", f"{v.constraint_id}: {v.reason}", attempts["n"])
+            if upon_ok and (done or (self.cfg.halt_on_upon and upon_streak >= self.cfg.upon_dwell_frames)):
+                if not done:
+                    policy.halt()
+                    self.emit("early_halt", t=env.t, reason="all upon constraints satisfied")
+                self._frame(view_state, verdicts, "subgoal complete")
+                return rec("success", "; ".join(v.reason for v in upon_v), attempts["n"])
+            self._frame(view_state, verdicts, banner)
+            if done:
+                bad = [v for v in upon_v if not v.ok]
+                if not upon:
+                    return rec("success", "policy finished", attempts["n"])
+                v = bad[0] if bad else None
+                reason = f"{v.constraint_id}: {v.reason}" if v else "upon check faulted"
+                if v is not None:
+                    self._alarm(ep, subgoal, v)
+                return rec("reactive_failure", reason, attempts["n"])
+            if self._out_of_time(env):
+                policy.halt()
+                return rec("timeout", "time limit reached during the subgoal", attempts["n"])
+
+    def _monitor_frame(
+        self, env: Environment, elements: list[Element], history: Any
+    ) -> tuple[list[Verdict], tuple[Observation, list[Element], dict[int, np.ndarray]]]:
+        obs = env.observe()
+        tr = self.tracker.step(obs)
+        history.push(obs.t, tr.points)
+        H, ht = history.arrays()
+        verdicts = self.runtime.step(tr.points, H, ht, obs.t)
+        current = []
+        for e in elements:
+            pts = tr.points.get(e.id, e.points)
+            current.append(Element(e.id, e.name, e.kind, pts, e.owner, e.color))
+        for v in verdicts:
+            if not v.ok:
+                self.emit("verdict", **v.to_dict())
+        return verdicts, (obs, current, tr.stale)
+
+    def _frame(self, state: tuple[Observation, list[Element], dict[int, np.ndarray]], verdicts: list[Verdict],
+               banner: str) -> None:
+        if self.on_frame is not None:
+            obs, current, stale = state
+            self.on_frame(obs, current, stale, verdicts, banner)
+
+    def _alarm(self, ep: EpisodeLog, subgoal: Subgoal, v: Verdict) -> None:
+        c = next((c for c in subgoal.constraints if c.id == v.constraint_id), None)
+        alarm = Alarm(v.t, v.constraint_id, v.phase.value, bool(c and c.proactive), v.reason, subgoal.text)
+        ep.alarms.append(alarm)
+        self.emit("alarm", **alarm.to_dict())
+
+
+__all__ = ["Agent", "AgentConfig", "Alarm", "Environment", "EpisodeLog", "SubgoalRecord"]
