@@ -1,1 +1,1 @@
-"""viz layer."""
+"""Layer 7: videos, plots and live views."""
