@@ -48,23 +48,29 @@ def draw_elements(
     img = np.ascontiguousarray(rgb.copy())
     s = _scale(img)
     r = max(3, round(5 * s))
-    overlay = img.copy()
-    any_fill = False
-    labels: list[tuple[str, tuple[int, int], tuple[int, int, int]]] = []
+    projected: list[tuple[Element, np.ndarray]] = []
     for el in elements:
         uv, z = camera.project(el.points)
         if np.any(z <= 1e-6) or not np.all(np.isfinite(uv)):
             continue
-        pts = np.round(uv).astype(np.int32)
-        col = tuple(int(c) for c in el.color)
-        st = stale.get(el.id) if stale else None
+        projected.append((el, np.round(uv).astype(np.int32)))
+    # Surface fills first (blended), then outlines, lines, points and labels on top at full opacity.
+    polys: dict[int, np.ndarray] = {}
+    overlay = img.copy()
+    for el, pts in projected:
         if el.kind is ElementKind.SURFACE:
             c = pts.mean(axis=0)
             order = np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))
-            poly = pts[order].reshape(-1, 1, 2)
-            cv2.fillPoly(overlay, [poly], col)
-            cv2.polylines(img, [poly], True, col, max(1, round(2 * s)), cv2.LINE_AA)
-            any_fill = True
+            polys[el.id] = pts[order].reshape(-1, 1, 2)
+            cv2.fillPoly(overlay, [polys[el.id]], tuple(int(v) for v in el.color))
+    if polys:
+        img = cv2.addWeighted(overlay, alpha, img, 1 - alpha, 0)
+    labels: list[tuple[str, tuple[int, int], tuple[int, int, int]]] = []
+    for el, pts in projected:
+        col = tuple(int(c) for c in el.color)
+        st = stale.get(el.id) if stale else None
+        if el.id in polys:
+            cv2.polylines(img, [polys[el.id]], True, col, max(1, round(2 * s)), cv2.LINE_AA)
         elif el.kind is ElementKind.LINE:
             cv2.line(img, tuple(pts[0]), tuple(pts[1]), col, max(2, round(3 * s)), cv2.LINE_AA)
         for i, p in enumerate(pts):
@@ -74,8 +80,6 @@ def draw_elements(
                 cv2.circle(img, tuple(p), r, (255, 255, 255), 1, cv2.LINE_AA)
         anchor = pts.mean(axis=0).astype(int)
         labels.append((str(el.id), (int(anchor[0]) + r + 2, int(anchor[1]) - r - 2), col))
-    if any_fill:
-        img = cv2.addWeighted(overlay, alpha, img, 1 - alpha, 0)
     for text, org, col in labels:
         _label(img, text, org, col, s)
     return img
