@@ -1,0 +1,212 @@
+"""Tracker interface, the tracker stage registry and its factory.
+
+A tracker follows the painted elements from frame to frame (streaming)::
+
+    tracker = make_tracker(TrackerConfig.from_name("lk"))
+    tracker.set_reacquire(fn)            # optional: fn(obs, element) -> Element | None
+    tracker.reset(obs0, elements)        # elements: list[Element], points (k, 3) world metres
+    res = tracker.step(obs1)             # res.points[id] (k, 3) world, res.stale[id] (k,) bool
+
+A point the tracker has lost is *stale*: it keeps its last good position and is flagged, never
+replaced by a guess. Elements owned by the robot's end-effector (owner object ``"robot"`` by default)
+follow forward kinematics (``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every
+backend: they are never tracked in images.
+
+The backend configs are registered here; implementations (``lk``, ``sim``) are imported only by
+:func:`make_tracker`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from code_as_monitor.core.elements import Element
+from code_as_monitor.core.errors import ConfigError, PerceptionError
+from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.registry import Choice, check_positive
+
+ReacquireFn = Callable[[Observation, Element], "Element | None"]
+
+
+@dataclass
+class TrackerConfig(Choice):
+    """Base of the tracker stage configs (``TrackerConfig.from_name("lk", window=25)``).
+
+    Attributes:
+        kinematic_owners: owner object names whose elements follow the robot's forward kinematics.
+    """
+
+    kinematic_owners: tuple[str, ...] = ("robot",)
+
+
+@TrackerConfig.register("sim")
+@dataclass
+class SimTrackerConfig(TrackerConfig):
+    """Oracle tracker: elements move rigidly with their owner's ground-truth pose (``Observation.object_poses``)."""
+
+
+@TrackerConfig.register("lk")
+@dataclass
+class LKTrackerConfig(TrackerConfig):
+    """Pyramidal Lucas-Kanade per view, lifted with depth and fused across views.
+
+    Attributes:
+        window: LK window side, pixels (odd; 21-31 suits textureless blocks).
+        levels: pyramid levels above the base image (``maxLevel``).
+        iterations, epsilon: LK termination criteria.
+        fb_threshold_px: forward-backward error above this (pixels) -> lost in that view.
+        min_eig: LK minimum eigenvalue threshold (``minEigThreshold``).
+        occlusion_tol: metres; a point is visible in a view when the depth image at its projection
+            agrees with the point's depth to within this.
+        max_depth_jump: metres; a tracked pixel whose depth reading jumps more than this between
+            frames slid onto another surface -> lost in that view.
+        border_px: a projection or track closer than this to the image border is out of the view.
+        max_depth: metres; depth readings beyond this are invalid (passed to the lifting).
+        fusion: "mean" or "median" of the per-view 3-D estimates.
+        rigid: for line/surface elements, fit a rigid transform (Kabsch) from the element's reference
+            shape to its validly tracked points and apply it to all its points.
+        rigid_min_points: points needed for the rigid fit (>= 3).
+        rigid_max_residual: metres; the fit is rejected (per-point estimates kept) above this RMS.
+        reacquire_after: frames an element may have a stale point before the reacquire hook runs
+            (and the wait before retrying after the hook found nothing).
+    """
+
+    window: int = 25
+    levels: int = 3
+    iterations: int = 30
+    epsilon: float = 0.01
+    fb_threshold_px: float = 1.0
+    min_eig: float = 1e-4
+    occlusion_tol: float = 0.015
+    max_depth_jump: float = 0.03
+    border_px: int = 4
+    max_depth: float = 5.0
+    fusion: str = "mean"
+    rigid: bool = True
+    rigid_min_points: int = 3
+    rigid_max_residual: float = 0.01
+    reacquire_after: int = 5
+
+    def __post_init__(self) -> None:
+        if self.window < 5 or self.window % 2 == 0:
+            raise ConfigError(f"lk.window must be an odd number >= 5, got {self.window!r}")
+        if self.fusion not in ("mean", "median"):
+            raise ConfigError(f"lk.fusion must be 'mean' or 'median', got {self.fusion!r}")
+        if self.rigid_min_points < 3:
+            raise ConfigError(f"lk.rigid_min_points must be >= 3, got {self.rigid_min_points!r}")
+        check_positive("lk", "levels", self.levels, allow_zero=True)
+        for f in ("iterations", "epsilon", "fb_threshold_px", "occlusion_tol", "max_depth_jump",
+                  "max_depth", "rigid_max_residual", "reacquire_after"):
+            check_positive("lk", f, getattr(self, f))
+        check_positive("lk", "border_px", self.border_px, allow_zero=True)
+        check_positive("lk", "min_eig", self.min_eig, allow_zero=True)
+
+
+@dataclass
+class TrackResult:
+    """Element positions at one frame.
+
+    Attributes:
+        t: observation time, seconds.
+        points: element id -> (k, 3) world metres (a stale point holds its last good position).
+        stale: element id -> (k,) bool, True where the point was not observed this frame.
+        visible_views: element id -> number of views in which at least one of its points was
+            observed this frame (kinematic elements count the views they project into).
+    """
+
+    t: float
+    points: dict[int, np.ndarray]
+    stale: dict[int, np.ndarray]
+    visible_views: dict[int, int] = field(default_factory=dict)
+
+    def any_stale(self) -> list[int]:
+        """Ids of elements with at least one stale point."""
+        return [i for i, s in self.stale.items() if s.any()]
+
+
+class Tracker(ABC):
+    """A streaming element tracker."""
+
+    def __init__(self) -> None:
+        self._reacquire: ReacquireFn | None = None
+
+    def set_reacquire(self, fn: ReacquireFn | None) -> None:
+        """Hook that re-detects a lost element: ``fn(obs, element) -> Element | None`` (same id)."""
+        self._reacquire = fn
+
+    @abstractmethod
+    def reset(self, obs: Observation, elements: list[Element]) -> None:
+        """Start tracking ``elements`` (points (k, 3) world metres) from ``obs``."""
+
+    @abstractmethod
+    def step(self, obs: Observation) -> TrackResult:
+        """Advance to ``obs``; return every element's current points, stale flags and view counts."""
+
+
+class KinematicAnchor:
+    """Moves an end-effector element with forward kinematics.
+
+    At reset the element's points are stored relative to the anchor: the named point
+    ``robot.ee_points[part]`` when present (pure translation), else the ``ee_pose`` frame.
+    """
+
+    def __init__(self, obs: Observation, element: Element) -> None:
+        if obs.robot is None:
+            raise PerceptionError(
+                f"element {element.id} ({element.name!r}) belongs to the end-effector but the observation "
+                "has no robot state"
+            )
+        self.part = element.owner[1] or "tip"
+        robot = obs.robot
+        if self.part in robot.ee_points:
+            self.mode = "point"
+            self.local = element.points - np.asarray(robot.ee_points[self.part], dtype=np.float64).reshape(1, 3)
+        else:
+            self.mode = "pose"
+            T = np.asarray(robot.ee_pose, dtype=np.float64)
+            self.local = (element.points - T[:3, 3]) @ T[:3, :3]
+        self.name = element.name
+
+    def points(self, obs: Observation) -> np.ndarray:
+        """(k, 3) world points at ``obs``."""
+        robot = obs.robot
+        if robot is None:
+            raise PerceptionError(f"element {self.name!r} follows the robot but the observation has no robot state")
+        if self.mode == "point":
+            if self.part not in robot.ee_points:
+                raise PerceptionError(f"robot state lost its end-effector point {self.part!r}")
+            return self.local + np.asarray(robot.ee_points[self.part], dtype=np.float64).reshape(1, 3)
+        T = np.asarray(robot.ee_pose, dtype=np.float64)
+        return self.local @ T[:3, :3].T + T[:3, 3]
+
+
+def views_containing(obs: Observation, points: np.ndarray) -> int:
+    """Number of views of ``obs`` into whose image at least one of ``points`` (k, 3) projects."""
+    n = 0
+    for view in obs.views.values():
+        cam = view.camera
+        uv, z = cam.project(points)
+        u, v = uv[:, 0], uv[:, 1]
+        inside = (z > 0) & (u >= 0) & (u <= cam.width - 1) & (v >= 0) & (v <= cam.height - 1)
+        n += bool(inside.any())
+    return n
+
+
+_IMPLEMENTATIONS: dict[str, str] = {
+    "sim": "code_as_monitor.perception.trackers.sim:SimTracker",
+    "lk": "code_as_monitor.perception.trackers.lk:LKTracker",
+}
+
+
+def make_tracker(config: TrackerConfig) -> Tracker:
+    """Build the tracker for ``config``, importing its implementation module only now."""
+    name = type(config).name
+    if name not in _IMPLEMENTATIONS:
+        raise ConfigError(f"no tracker implementation registered for {name!r}")
+    module, cls = _IMPLEMENTATIONS[name].split(":")
+    return getattr(importlib.import_module(module), cls)(config)
