@@ -1,0 +1,163 @@
+"""Lift pixels with metric depth to 3-D points in the world frame.
+
+Camera frame: OpenCV (x right, y down, z forward). A pixel ``(u, v)`` (u = column, v = row) with depth
+``z`` (metres along the optical axis, *not* along the ray) is the camera-frame point
+``z * K^-1 [u, v, 1]``, and ``camera.T_world_cam`` takes it to the world frame (z up, metres).
+
+A depth reading is valid when it is finite, > 0 and <= ``max_depth``; anything else (0, NaN, inf,
+negative, beyond range) is skipped.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from code_as_monitor.core.camera import CameraModel
+from code_as_monitor.core.errors import GeometryError, NoValidDepthError, ShapeMismatchError
+
+DEFAULT_MAX_DEPTH = 5.0
+"""Metres; depth readings beyond this are treated as missing."""
+
+
+def check_depth(depth: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """Return ``depth`` as an (H, W) float array; raise ShapeMismatchError unless it matches ``camera``."""
+    depth = np.asarray(depth)
+    if depth.ndim != 2:
+        raise ShapeMismatchError(f"camera {camera.name!r}: depth must be (H, W), got shape {depth.shape}")
+    if depth.shape != (camera.height, camera.width):
+        raise ShapeMismatchError(
+            f"camera {camera.name!r}: depth shape {depth.shape} does not match the camera's "
+            f"(height, width) = {(camera.height, camera.width)}"
+        )
+    if not np.issubdtype(depth.dtype, np.floating):
+        depth = depth.astype(np.float32)
+    return depth
+
+
+def valid_depth(depth: np.ndarray, max_depth: float = DEFAULT_MAX_DEPTH) -> np.ndarray:
+    """(H, W) or (N,) bool: finite, strictly positive and at most ``max_depth`` metres."""
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(depth) & (depth > 0) & (depth <= max_depth)
+
+
+def _lift(u: np.ndarray, v: np.ndarray, z: np.ndarray, camera: CameraModel) -> np.ndarray:
+    """World points (N, 3) for pixel coordinates ``u, v`` (N,) and depths ``z`` (N,), all float."""
+    Kinv = np.linalg.inv(camera.K)
+    x = Kinv[0, 0] * u + Kinv[0, 1] * v + Kinv[0, 2]
+    y = Kinv[1, 0] * u + Kinv[1, 1] * v + Kinv[1, 2]
+    w = Kinv[2, 0] * u + Kinv[2, 1] * v + Kinv[2, 2]  # 1 for any K with last row [0, 0, 1]
+    s = z / w
+    R = camera.T_world_cam[:3, :3]
+    t = camera.T_world_cam[:3, 3]
+    # p_world = R @ (s * [x, y, w]) + t, written column by column to stay in (N,) arrays.
+    xs, ys, zs = s * x, s * y, s * w
+    out = np.empty((len(z), 3), dtype=np.float64)
+    for i in range(3):
+        out[:, i] = R[i, 0] * xs + R[i, 1] * ys + R[i, 2] * zs + t[i]
+    return out
+
+
+def backproject_mask(
+    mask: np.ndarray,
+    depth: np.ndarray,
+    camera: CameraModel,
+    max_depth: float = DEFAULT_MAX_DEPTH,
+    allow_empty: bool = False,
+) -> np.ndarray:
+    """World points (N, 3) of the mask's pixels that have a valid depth reading.
+
+    Args:
+        mask: (H, W) bool (or 0/1) mask of the entity/part in this view.
+        depth: (H, W) metric depth, metres along the optical axis; 0 / NaN / > max_depth = missing.
+        camera: the view's calibrated camera (its size must be (W, H)).
+        max_depth: metres; readings beyond are skipped.
+        allow_empty: return an empty (0, 3) array instead of raising when nothing is valid.
+    Returns:
+        (N, 3) float64 world frame, metres, one point per valid mask pixel (row-major pixel order).
+    Raises:
+        ShapeMismatchError: mask and depth (or camera size) disagree.
+        NoValidDepthError: no mask pixel has a valid depth (unless ``allow_empty``).
+    """
+    depth = check_depth(depth, camera)
+    mask = np.asarray(mask)
+    if mask.shape != depth.shape:
+        raise ShapeMismatchError(
+            f"camera {camera.name!r}: mask shape {mask.shape} does not match depth shape {depth.shape}"
+        )
+    if max_depth <= 0:
+        raise GeometryError(f"max_depth must be > 0, got {max_depth!r}")
+    sel = mask.astype(bool, copy=False)
+    rows, cols = np.nonzero(sel)
+    z = depth[rows, cols].astype(np.float64)
+    ok = valid_depth(z, max_depth)
+    if not ok.any():
+        if allow_empty:
+            return np.empty((0, 3), dtype=np.float64)
+        raise NoValidDepthError(
+            f"camera {camera.name!r}: the mask ({len(z)} pixels) has no valid depth reading "
+            f"(0 < depth <= {max_depth} m)"
+        )
+    return _lift(cols[ok].astype(np.float64), rows[ok].astype(np.float64), z[ok], camera)
+
+
+def sample_depth(uv: np.ndarray, depth: np.ndarray, max_depth: float = DEFAULT_MAX_DEPTH) -> np.ndarray:
+    """Robust depth (N,) at pixels ``uv`` (N, 2): median of the valid readings in the 3x3 neighbourhood
+    of the rounded pixel; NaN where the pixel is outside the image or no neighbour is valid."""
+    H, W = depth.shape
+    n = uv.shape[0]
+    good = np.all(np.isfinite(uv), axis=1)
+    c = np.zeros((n, 2), dtype=np.int64)
+    c[good] = np.rint(uv[good]).astype(np.int64)
+    inside = good & (c[:, 0] >= 0) & (c[:, 0] < W) & (c[:, 1] >= 0) & (c[:, 1] < H)
+    offs = np.array([-1, 0, 1])
+    cu = np.clip(c[:, 0:1] + offs[None, :], 0, W - 1)  # (N, 3)
+    cv = np.clip(c[:, 1:2] + offs[None, :], 0, H - 1)
+    D = depth[cv[:, :, None], cu[:, None, :]].reshape(n, 9).astype(np.float64)  # (N, 9)
+    D[~valid_depth(D, max_depth)] = np.inf  # invalid readings sort last
+    D.sort(axis=1)
+    cnt = np.isfinite(D).sum(axis=1)
+    lo = np.clip((cnt - 1) // 2, 0, 8)
+    hi = np.clip(cnt // 2, 0, 8)
+    idx = np.arange(n)
+    out = 0.5 * (D[idx, lo] + D[idx, hi])
+    out[(cnt == 0) | ~inside] = np.nan
+    return out
+
+
+def backproject_pixels(
+    uv: np.ndarray,
+    depth: np.ndarray,
+    camera: CameraModel,
+    max_depth: float = DEFAULT_MAX_DEPTH,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lift tracked 2-D points to the world frame (the per-frame path of the trackers; vectorised).
+
+    The depth at each point is the median of the valid readings in the 3x3 neighbourhood of its
+    rounded pixel (robust to a missing reading or a depth edge); the point itself is lifted at its
+    sub-pixel ``(u, v)``.
+
+    Args:
+        uv: (N, 2) pixel coordinates (u = column, v = row), float.
+        depth: (H, W) metric depth of the view, metres.
+        camera: the view's camera.
+        max_depth: metres; readings beyond are missing.
+    Returns:
+        points: (N, 3) world frame, metres; rows where ``valid`` is False are NaN.
+        valid: (N,) bool: inside the image with at least one valid depth reading nearby.
+    Raises:
+        ShapeMismatchError: ``uv`` is not (N, 2) or depth does not match the camera.
+    """
+    depth = check_depth(depth, camera)
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim == 1 and uv.shape == (2,):
+        uv = uv[None]
+    if uv.ndim != 2 or uv.shape[1] != 2:
+        raise ShapeMismatchError(f"camera {camera.name!r}: uv must be (N, 2), got shape {uv.shape}")
+    points = np.full((uv.shape[0], 3), np.nan)
+    if uv.shape[0] == 0:
+        return points, np.zeros(0, dtype=bool)
+    z = sample_depth(uv, depth, max_depth)
+    valid = np.isfinite(z)
+    if valid.any():
+        points[valid] = _lift(uv[valid, 0], uv[valid, 1], z[valid], camera)
+    return points, valid
