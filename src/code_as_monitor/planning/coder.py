@@ -1,0 +1,211 @@
+"""The monitor coder: subgoal, constraints, annotated views and the element legend -> program source.
+
+The answer's code fences are stripped, the source must parse, and then the caller's ``check``
+(static validation and path coverage, from the monitor package) must accept it. A rejected program
+is sent back with the error up to ``max_retries`` times, then
+:class:`~code_as_monitor.core.errors.VLMOutputError` is raised.
+
+Element ids: the painter numbers elements ``0..n-1`` in the order the subgoal's constraint parts
+appear, deduplicated by ``(obj, part, kind)`` (:func:`legend_specs`). The coder does not rely on that
+order: it maps every constraint part to the element whose owner and kind match it
+(:func:`resolve_element_ids`), unless the painter already filled ``Constraint.element_ids``.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import logging
+import time
+from collections.abc import Callable, Iterable
+
+import numpy as np
+
+from code_as_monitor.core.constraints import Subgoal
+from code_as_monitor.core.elements import Element, ElementSpec
+from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
+from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
+from code_as_monitor.vlm.messages import Message
+from code_as_monitor.vlm.parsing import dump_request, strip_code_fences
+from code_as_monitor.vlm.templates import PROMPT_VERSION, render
+from code_as_monitor.vlm.usage import UsageMeter
+
+log = logging.getLogger(__name__)
+
+PURPOSE = "monitor_coder"
+ProgramCheck = Callable[[str], None]
+"""Validates a program; raises ProgramError whose message is sent back to the coder."""
+
+
+def legend_specs(subgoal: Subgoal) -> list[ElementSpec]:
+    """The element specs of ``subgoal`` in id order: constraint parts, deduplicated by (obj, part, kind)."""
+    seen: dict[tuple[str, str, str], ElementSpec] = {}
+    for c in subgoal.constraints:
+        for p in c.parts:
+            seen.setdefault((p.obj, p.part, p.kind.value), p)
+    return list(seen.values())
+
+
+def resolve_element_ids(subgoal: Subgoal, elements: list[Element]) -> dict[str, list[int]]:
+    """Constraint id -> element ids of its parts (``Constraint.element_ids`` when the painter set them)."""
+    index = {(e.owner[0], e.owner[1], e.kind.value): e.id for e in elements}
+    known = {e.id for e in elements}
+    out: dict[str, list[int]] = {}
+    for c in subgoal.constraints:
+        if c.element_ids and len(c.element_ids) == len(c.parts):
+            bad = [i for i in c.element_ids if i not in known]
+            if bad:
+                raise ConfigError(f"constraint {c.id!r}: element ids {bad} are not in the legend")
+            out[c.id] = list(c.element_ids)
+            continue
+        ids = []
+        for p in c.parts:
+            key = (p.obj, p.part, p.kind.value)
+            if key not in index:
+                raise ConfigError(
+                    f"constraint {c.id!r}: no element for part {p.obj}/{p.part or '(whole)'} ({p.kind.value})"
+                )
+            ids.append(index[key])
+        out[c.id] = ids
+    return out
+
+
+def program_defines_checks(source: str, constraint_ids: Iterable[str]) -> None:
+    """Static check: ``source`` parses and defines ``check_<id>(E, H, t)`` for every id.
+
+    Raises:
+        ProgramError: a syntax error, or the missing / mis-signed functions.
+    """
+    try:
+        tree = ast.parse(source)
+    except SyntaxError as exc:
+        raise ProgramError(f"syntax error at line {exc.lineno}: {exc.msg}") from None
+    defs = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+    problems = []
+    for cid in constraint_ids:
+        name = f"check_{cid}"
+        fn = defs.get(name)
+        if fn is None:
+            problems.append(f"missing function {name}(E, H, t)")
+        elif len(fn.args.args) != 3 or fn.args.vararg or fn.args.kwarg or fn.args.kwonlyargs:
+            problems.append(f"{name} must take exactly (E, H, t)")
+    if problems:
+        raise ProgramError("; ".join(problems))
+
+
+def basic_check(constraint_ids: Iterable[str]) -> ProgramCheck:
+    """A minimal ``check``: :func:`program_defines_checks` plus ``compile`` (no execution)."""
+    ids = list(constraint_ids)
+
+    def check(source: str) -> None:
+        program_defines_checks(source, ids)
+        try:
+            compile(source, "<monitor program>", "exec")
+        except (SyntaxError, ValueError) as exc:
+            raise ProgramError(f"does not compile: {exc}") from None
+
+    return check
+
+
+def _legend_lines(elements: list[Element]) -> str:
+    return "\n".join(
+        f"- {e.id}: {e.kind.value}, {e.name}, owner {e.owner[0]}/{e.owner[1] or '(whole)'}" for e in elements
+    )
+
+
+def _constraint_lines(subgoal: Subgoal, ids: dict[str, list[int]]) -> str:
+    lines = []
+    for c in subgoal.constraints:
+        kind = "proactive" if c.proactive else "reactive"
+        thr = json.dumps(c.thresholds, sort_keys=True)
+        lines.append(f"- {c.id} [{c.phase.value}, {kind}]: {c.text} | elements {ids[c.id]} | thresholds {thr}")
+    return "\n".join(lines)
+
+
+class MonitorCoder:
+    """Asks a VLM backend for the monitor program of a subgoal.
+
+    Args:
+        backend: any VLM backend.
+        usage: meter to count calls and tokens in (a fresh one when None).
+        prompt_version: version of the prompt template files.
+    """
+
+    def __init__(self, backend: VLMBackend, *, usage: UsageMeter | None = None,
+                 prompt_version: str = PROMPT_VERSION) -> None:
+        self.backend = backend
+        self.usage = usage if usage is not None else UsageMeter()
+        self.prompt_version = prompt_version
+        self.last_messages: list[Message] = []
+        self.last_response: VLMResponse | None = None
+
+    def build_messages(self, subgoal: Subgoal, elements: list[Element], annotated_images: dict[str, np.ndarray],
+                       feedback: str | None = None) -> list[Message]:
+        """System and user messages (the user message carries a ```json request block)."""
+        if not subgoal.constraints:
+            raise ConfigError(f"subgoal {subgoal.text!r} has no constraints to monitor")
+        ids = resolve_element_ids(subgoal, elements)
+        request = {
+            "subgoal": subgoal.text,
+            "action": subgoal.action.to_dict() if subgoal.action else None,
+            "constraints": [{**c.to_dict(), "element_ids": ids[c.id]} for c in subgoal.constraints],
+            "elements": [
+                {"id": e.id, "kind": e.kind.value, "name": e.name, "owner": list(e.owner)} for e in elements
+            ],
+            "feedback": feedback,
+        }
+        fb = f"\nA previous program for this subgoal was rejected: {feedback}\n" if feedback else ""
+        user = render(
+            "monitor_coder_user", self.prompt_version,
+            subgoal=subgoal.text,
+            constraints=_constraint_lines(subgoal, ids),
+            legend=_legend_lines(elements),
+            feedback=fb,
+            request=dump_request(request),
+        )
+        system = render("monitor_coder", self.prompt_version)
+        return [Message.system(system), Message.user(user, annotated_images)]
+
+    def write_program(
+        self,
+        subgoal: Subgoal,
+        elements: list[Element],
+        annotated_images: dict[str, np.ndarray],
+        check: ProgramCheck,
+        max_retries: int = 2,
+        feedback: str | None = None,
+    ) -> str:
+        """Program source accepted by ``check``.
+
+        Args:
+            check: raises ProgramError with the text to send back when it rejects a program.
+            max_retries: re-asks after a rejected program.
+            feedback: why a previous program of this subgoal was rejected (regeneration).
+        Raises:
+            VLMOutputError: nothing acceptable after ``1 + max_retries`` calls.
+        """
+        messages = self.build_messages(subgoal, elements, annotated_images, feedback)
+        last_error = ""
+        for attempt in range(1 + max(0, max_retries)):
+            t0 = time.monotonic()
+            resp = self.backend.complete(messages, purpose=PURPOSE)
+            self.usage.record(PURPOSE, resp, time.monotonic() - t0)
+            self.last_messages, self.last_response = messages, resp
+            source = strip_code_fences(resp.text)
+            try:
+                try:
+                    ast.parse(source)
+                except SyntaxError as exc:
+                    raise ProgramError(f"syntax error at line {exc.lineno}: {exc.msg}") from None
+                check(source)
+            except ProgramError as exc:
+                last_error = str(exc)
+                log.info("monitor coder: program rejected (attempt %d): %s", attempt + 1, last_error)
+                repair = render("repair", self.prompt_version, error=last_error, what="program")
+                messages = [*messages, Message.assistant(resp.text), Message.user(repair)]
+                continue
+            return source
+        raise VLMOutputError(
+            f"monitor coder: no acceptable program after {1 + max(0, max_retries)} attempt(s); last problem: "
+            + last_error.replace("\n", " ")
+        )

@@ -1,0 +1,214 @@
+# ruff: noqa: E501  (the bodies are generated code, kept one statement per line)
+"""Monitor-code templates: one small function per constraint kind, filled with element ids and thresholds.
+
+The template key is the prefix of the constraint id (``held_green_block`` -> ``held``); ids without a
+known prefix fall back to keywords in the constraint text. Generated code uses only ``np``, ``math``
+and the monitor helpers, returns literal ``True``/``False`` from explicit branches (so path-coverage
+testing can reach every branch) and formats reasons with ``%`` (no builtins needed).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Callable
+from typing import Any
+
+from code_as_monitor.core.errors import VLMError
+
+Spec = dict[str, Any]
+"""A constraint from the coder request: id, text, phase, thresholds, parts, element_ids."""
+
+
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def _q(s: str) -> str:
+    """A Python string literal for ``s`` (object names never contain ``%``)."""
+    return repr(s)
+
+
+def _head(c: Spec) -> str:
+    legend = "; ".join(f"E[{i}] = {p['name']} ({p['kind']})" for i, p in zip(c["element_ids"], c["parts"]))
+    return f"def check_{c['id']}(E, H, t):\n    # {c['text']}\n    # {legend}\n"
+
+
+def _fn(c: Spec, body: str) -> str:
+    """``def check_<id>`` with a comment header and ``body`` (written at zero indent) indented."""
+    return _head(c) + textwrap.indent(textwrap.dedent(body).strip("\n"), "    ") + "\n"
+
+
+def _name(c: Spec, k: int) -> str:
+    return str(c["parts"][k]["obj"])
+
+
+def held(c: Spec) -> str:
+    tip, x = c["element_ids"][:2]
+    th, xn = c["thresholds"], _name(c, 1)
+    body = f"""
+    d = distance(E[{tip}], E[{x}])
+    z = centroid(E[{x}])[2]
+    if d > {_f(th["max_dist"])}:
+        return False, {_q(xn + " is not held by the suction cup: %.3f m from the tip")} % d, {_f(th["max_dist"])} - d
+    if z < {_f(th["min_z"])}:
+        return False, {_q(xn + " is not held: not lifted, its centre is %.3f m above the table")} % z, z - {_f(th["min_z"])}
+    return True, {_q(xn + " is held by the suction cup")}, np.min([{_f(th["max_dist"])} - d, z - {_f(th["min_z"])}])
+"""
+    return _fn(c, body)
+
+
+def attached(c: Spec) -> str:
+    tip, x, tgt = c["element_ids"][:3]
+    th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    body = f"""
+    d = distance(E[{tip}], E[{x}])
+    if d <= {_f(th["max_dist"])}:
+        return True, {_q(xn + " is attached to the suction cup")}, {_f(th["max_dist"])} - d
+    off = horizontal_distance(E[{x}], E[{tgt}])
+    dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
+    if off <= {_f(th["release_xy"])} and dz >= {_f(th["min_dz"])} and dz <= {_f(th["max_dz"])}:
+        return True, {_q(xn + " was released onto " + tn)}, {_f(th["release_xy"])} - off
+    return False, {_q(xn + " dropped: detached from the suction cup (%.3f m from the tip) before resting on " + tn)} % d, {_f(th["max_dist"])} - d
+"""
+    return _fn(c, body)
+
+
+def still(c: Spec) -> str:
+    (tgt,) = c["element_ids"][:1]
+    th, tn = c["thresholds"], _name(c, 0)
+    body = f"""
+    m = displacement(H[{tgt}])
+    if m > {_f(th["max_disp"])}:
+        return False, {_q(tn + " moved %.3f m: the tower below is disturbed and stacking on it will topple")} % m, {_f(th["max_disp"])} - m
+    return True, {_q(tn + " stays in place (moved %.3f m)")} % m, {_f(th["max_disp"])} - m
+"""
+    return _fn(c, body)
+
+
+def centred(c: Spec) -> str:
+    tip, x, tgt = c["element_ids"][:3]
+    th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    body = f"""
+    off = horizontal_distance(E[{x}], E[{tgt}])
+    dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
+    d = distance(E[{tip}], E[{x}])
+    if dz < {_f(th["min_dz"])}:
+        return False, {_q(xn + " is not resting on " + tn + ": %.3f m below its resting height")} % ({_f(th["min_dz"])} - dz), dz - {_f(th["min_dz"])}
+    if dz > {_f(th["max_dz"])}:
+        return False, {_q(xn + " is still %.3f m above " + tn + ", not placed yet")} % dz, {_f(th["max_dz"])} - dz
+    if off > {_f(th["max_offset"])}:
+        return False, {_q(xn + " is offset %.3f m from the centre of " + tn + ": stacking on it will topple")} % off, {_f(th["max_offset"])} - off
+    if d < {_f(th["release_dist"])}:
+        return False, {_q(xn + " is still held by the suction cup on " + tn)}, d - {_f(th["release_dist"])}
+    return True, {_q(xn + " rests on " + tn + ", offset %.3f m")} % off, {_f(th["max_offset"])} - off
+"""
+    return _fn(c, body)
+
+
+def tower(c: Spec) -> str:
+    up, lo = c["element_ids"][:2]
+    th, un, ln = c["thresholds"], _name(c, 0), _name(c, 1)
+    body = f"""
+    off = horizontal_distance(E[{up}], E[{lo}])
+    dz = centroid(E[{up}])[2] - centroid(E[{lo}])[2]
+    if dz < {_f(th["min_dz"])} or dz > {_f(th["max_dz"])}:
+        return False, {_q(un + " is no longer on " + ln + " (height difference %.3f m): the tower collapsed")} % dz, -np.abs(dz - {_f((th["min_dz"] + th["max_dz"]) / 2)})
+    if off > {_f(th["max_offset"])}:
+        return False, {_q(un + " is no longer on " + ln + ": it slid %.3f m off centre, the tower collapsed")} % off, {_f(th["max_offset"])} - off
+    return True, {_q(un + " is still on " + ln)}, {_f(th["max_offset"])} - off
+"""
+    return _fn(c, body)
+
+
+def _blocks_and_zone(c: Spec) -> tuple[int, list[int]]:
+    ids = c["element_ids"]
+    zone = next(i for i, p in zip(ids, c["parts"]) if p["kind"] == "surface")
+    return zone, [i for i, p in zip(ids, c["parts"]) if p["kind"] == "point"]
+
+
+def reached(c: Spec) -> str:
+    zone, blocks = _blocks_and_zone(c)
+    th = c["thresholds"]
+    tgt, up, total = int(th["target"]), int(th["upper"]), int(th["total"])
+    body = f"""
+    n = count_in_polygon([E[i] for i in {tuple(blocks)!r}], E[{zone}])
+    if n < {tgt}:
+        return False, "only %d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
+    if n > {up}:
+        return False, "%d blocks are inside the zone, more than {up}" % n, {up} - n + 0.5
+    return True, "%d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
+"""
+    return _fn(c, body)
+
+
+def capped(c: Spec) -> str:
+    zone, blocks = _blocks_and_zone(c)
+    up = int(c["thresholds"]["upper"])
+    body = f"""
+    n = count_in_polygon([E[i] for i in {tuple(blocks)!r}], E[{zone}])
+    if n > {up}:
+        return False, "%d blocks are inside the zone, more than {up}" % n, {up} - n + 0.5
+    return True, "%d blocks are inside the zone (at most {up})" % n, {up} - n + 0.5
+"""
+    return _fn(c, body)
+
+
+def ends(c: Spec) -> str:
+    e0, e1, c0, c1 = c["element_ids"][:4]
+    tol = c["thresholds"]["max_dist"]
+    body = f"""
+    a = np.max([distance(E[{e0}], E[{c0}]), distance(E[{e1}], E[{c1}])])
+    b = np.max([distance(E[{e0}], E[{c1}]), distance(E[{e1}], E[{c0}])])
+    err = np.min([a, b])
+    if err > {_f(tol)}:
+        return False, "the opening of the square is not enclosed: a rope end is %.3f m from its corner" % err, {_f(tol)} - err
+    return True, "the rope ends reach the opening corners (worst %.3f m)" % err, {_f(tol)} - err
+"""
+    return _fn(c, body)
+
+
+def _tilt(c: Spec, what: str, vec: str) -> str:
+    (el,) = c["element_ids"][:1]
+    tol, n = c["thresholds"]["max_tilt"], _name(c, 0)
+    body = f"""
+    a = angle_to_vertical({vec}(E[{el}]))
+    if a > {_f(tol)}:
+        return False, {_q(n + " is not " + what + ": %.1f degrees from vertical")} % math.degrees(a), {_f(tol)} - a
+    return True, {_q(n + " is " + what + " (%.1f degrees)")} % math.degrees(a), {_f(tol)} - a
+"""
+    return _fn(c, body)
+
+
+def upright(c: Spec) -> str:
+    return _tilt(c, "upright", "direction")
+
+
+def level(c: Spec) -> str:
+    return _tilt(c, "level", "normal")
+
+
+TEMPLATES: dict[str, Callable[[Spec], str]] = {
+    "held": held, "attached": attached, "still": still, "centred": centred, "tower": tower,
+    "reached": reached, "capped": capped, "ends": ends, "upright": upright, "level": level,
+}
+KEYWORDS: tuple[tuple[str, str], ...] = (
+    ("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
+    ("still on", "tower"), ("inside", "reached"), ("rope", "ends"), ("upright", "upright"), ("level", "level"),
+)
+
+
+def template_key(c: Spec) -> str:
+    """The template for constraint ``c``: its id prefix, else a keyword of its text."""
+    prefix = str(c["id"]).split("_", 1)[0]
+    if prefix in TEMPLATES:
+        return prefix
+    text = str(c.get("text", "")).lower()
+    for word, key in KEYWORDS:
+        if word in text:
+            return key
+    raise VLMError(f"kb: no code template for constraint {c['id']!r} ({c.get('text', '')!r})")
+
+
+def write_check(c: Spec) -> str:
+    """The source of ``check_<id>`` for constraint ``c``."""
+    return TEMPLATES[template_key(c)](c)

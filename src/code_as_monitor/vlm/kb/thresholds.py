@@ -1,0 +1,59 @@
+"""The knowledge base's thresholds table: manually set tolerances for common tasks.
+
+This is the paper's "manually initialized thresholds for common tasks in an external knowledge base"
+(supplementary, failure threshold selection). Values are physical tolerances chosen from the task
+geometry (block edge about 4 cm, suction cup contact at the block's top face), never fitted to
+evaluation outcomes. Units: metres, radians, fractions.
+"""
+
+from __future__ import annotations
+
+BLOCK_SIZE = 0.04
+"""Nominal edge of a stacking block (m); the height tests below are expressed in block sizes."""
+
+THRESHOLDS: dict[str, dict[str, float]] = {
+    # pick: the block is on the suction cup and off the table.
+    "held": {
+        "max_dist": 0.04,  # tip to block centre: half a block (contact) plus 2 cm slack
+        "min_z": 0.05,  # block centre height: resting centre (2 cm) plus 3 cm lift
+    },
+    # place_on, during: the carried block stays on the cup until it rests on the target.
+    "attached": {
+        "max_dist": 0.05,  # tip to block centre while carried (looser than "held": the cup swings)
+        "release_xy": 0.03,  # a release within 3 cm of the target centre counts as "placed"
+        "min_dz": 0.5 * BLOCK_SIZE,  # block above target by 0.5 ... 1.5 block sizes = resting on it
+        "max_dz": 1.5 * BLOCK_SIZE,
+    },
+    # place_on, during (proactive): the block below must not be pushed while we stack on it.
+    "still": {"max_disp": 0.02},
+    # place_on, upon (proactive): an off-centre block makes the next level topple.
+    "centred": {
+        "max_offset": 0.015,
+        "min_dz": 0.5 * BLOCK_SIZE,
+        "max_dz": 1.5 * BLOCK_SIZE,
+        "release_dist": 0.04,  # tip must be at least this far from the block centre (released)
+    },
+    # place_on, during: lower levels of the tower stay stacked (reactive collapse detection).
+    "tower": {"max_offset": 0.025, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
+    # push_into_region: "half of the blocks", accepted within +-10 % of all blocks (paper: 16-24 of 40).
+    "count": {
+        "fraction": 0.5,
+        "tolerance_fraction": 0.10,
+        # Aim below the centre of the band: pushes in flight when the monitor halts the policy
+        # still carry a few blocks in, so halting at the centre would drift toward the upper bound.
+        "aim_below_centre": 0.5,  # fraction of the half-band
+    },
+    # close_shape: both rope ends at the square's opening corners (enclosed, not a perfect square).
+    "rope_ends": {"max_dist": 0.03},
+    # Growth (no simulator skill uses these yet): keep-upright, keep-level.
+    "upright": {"max_tilt": 0.26},  # ~15 degrees
+    "level": {"max_tilt": 0.26},  # the paper's pan example: normal within 15 degrees of z
+}
+
+DEFAULT_ROPE_BEADS = 20
+"""Bead count assumed for ``rope`` when the scene does not list its parts (``rope/bead_NN``)."""
+
+
+def thresholds(kind: str) -> dict[str, float]:
+    """A copy of the thresholds of constraint kind ``kind``."""
+    return dict(THRESHOLDS[kind])

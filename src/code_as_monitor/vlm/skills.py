@@ -1,0 +1,29 @@
+"""The skills a policy offers, as the constraint generator is told about them.
+
+These are the simulator's skills (see ``docs/architecture.md``); a real robot passes its own table to
+:class:`~code_as_monitor.planning.generator.ConstraintGenerator`.
+"""
+
+from __future__ import annotations
+
+DEFAULT_SKILLS: dict[str, str] = {
+    "pick": 'args {"obj": name}: approach above the object, descend to contact, suction on, lift to carry height',
+    "place_on": (
+        'args {"obj": name, "target": name or "table", "xy": [x, y] optional}: carry the held object above '
+        "the target, descend, release, retreat up"
+    ),
+    "push_into_region": (
+        'args {"region": name}: repeated spatula pushes of the blocks outside the region towards it, until '
+        "none is left (it never stops by itself)"
+    ),
+    "close_shape": (
+        'args {"rope": name, "shape": name}: repeated adjustments of rope beads towards the opening of the '
+        "shape (it never stops by itself)"
+    ),
+}
+"""Skill name -> one-line description of its arguments and behaviour."""
+
+
+def skills_markdown(skills: dict[str, str]) -> str:
+    """The skills as a Markdown bullet list for the prompt."""
+    return "\n".join(f"- `{name}`: {doc}" for name, doc in skills.items())

@@ -1,0 +1,49 @@
+"""Fixtures for the VLM layer tests: running trusted kb programs on constructed element states."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from code_as_monitor.core import Element, Subgoal
+from code_as_monitor.geometry.helpers import MONITOR_HELPERS
+from code_as_monitor.planning import legend_specs
+
+
+class History(list):
+    """``H``: per-element histories (T, k, 3) with ``H.t`` (T,)."""
+
+    t: np.ndarray
+
+
+def elements_for(subgoal: Subgoal, points: dict[tuple[str, str], np.ndarray]) -> list[Element]:
+    """Legend elements of ``subgoal`` numbered in part order, placed at ``points[(obj, part)]``."""
+    out = []
+    for i, s in enumerate(legend_specs(subgoal)):
+        p = np.asarray(points[(s.obj, s.part)], dtype=float).reshape(-1, 3)
+        out.append(Element(i, s.name, s.kind, p, (s.obj, s.part)))
+    return out
+
+
+def run_checks(source: str, elements: list[Element], history: list[np.ndarray] | None = None,
+               t: float = 1.0) -> dict[str, tuple]:
+    """Execute every ``check_*`` of ``source`` (trusted kb templates, tests only) on the given state."""
+    ns: dict = {"np": np, "math": math, **MONITOR_HELPERS}
+    exec(compile(source, "<kb program>", "exec"), ns)
+    E = [e.points for e in elements]
+    H = History(history if history is not None else [np.stack([e.points, e.points]) for e in elements])
+    H.t = np.array([0.0, t])
+    return {name[len("check_"):]: ns[name](E, H, t) for name in ns if name.startswith("check_")}
+
+
+@pytest.fixture
+def run_program() -> Callable[..., dict[str, tuple]]:
+    return run_checks
+
+
+@pytest.fixture
+def make_elements() -> Callable[..., list[Element]]:
+    return elements_for

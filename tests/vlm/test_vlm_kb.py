@@ -1,0 +1,265 @@
+"""The kb backend: valid plans and programs for the simulator's tasks, through the VLM-path validators."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from code_as_monitor.core import Element
+from code_as_monitor.core.errors import VLMError
+from code_as_monitor.planning import ConstraintGenerator, MonitorCoder, basic_check, legend_specs
+from code_as_monitor.vlm.backend import KBBackendConfig, make_backend
+from code_as_monitor.vlm.kb import KBBackend
+from code_as_monitor.vlm.kb.feedback import classify
+from code_as_monitor.vlm.kb.tasks import infer_objects, tower_order
+
+STACK = "stack the blocks: red at the bottom, then green, then blue"
+SWEEP = "sweep half of the blocks into the zone"
+ROPE = "use the rope to close the opening of the square"
+IMG = {"front": np.zeros((8, 8, 3), np.uint8), "top": np.zeros((8, 8, 3), np.uint8)}
+
+
+def gen_coder():
+    be = make_backend(KBBackendConfig())
+    gen = ConstraintGenerator(be)
+    return gen, MonitorCoder(be, usage=gen.usage)
+
+
+def program_for(coder, subgoal, make_elements, points):
+    els = make_elements(subgoal, points)
+    return coder.write_program(subgoal, els, IMG, basic_check([c.id for c in subgoal.constraints])), els
+
+
+def test_stack_plan_with_success_feedback():
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    assert objs == ["red_block", "green_block", "blue_block", "table"]
+    prev, actions = None, []
+    for _ in range(8):
+        sg = gen.next_subgoal(STACK, IMG, objs, prev, "success" if prev else None)
+        if sg.done:
+            break
+        actions.append((sg.action.skill, sg.action.args))
+        prev = sg
+    assert actions == [
+        ("pick", {"obj": "green_block"}),
+        ("place_on", {"obj": "green_block", "target": "red_block"}),
+        ("pick", {"obj": "blue_block"}),
+        ("place_on", {"obj": "blue_block", "target": "green_block"}),
+    ]
+    assert sg.done and sg.constraints == []
+    assert gen.usage.calls == 5 and gen.usage.episode()["subgoals"] == 5
+
+
+def test_stack_constraints_phases_and_parts():
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    pick = gen.next_subgoal(STACK, IMG, objs)
+    [held] = pick.constraints
+    assert held.phase.value == "upon" and not held.proactive
+    parts = [(p.obj, p.part, p.kind.value) for p in held.parts]
+    assert parts == [("robot", "tip", "point"), ("green_block", "", "point")]
+    place_blue = gen.next_subgoal(STACK, IMG, objs, _subgoal(gen, objs, 2), "success")
+    by_id = {c.id: c for c in place_blue.constraints}
+    assert by_id["attached_blue_block"].phase.value == "during" and not by_id["attached_blue_block"].proactive
+    assert by_id["still_green_block"].proactive
+    cen = by_id["centred_blue_block_on_green_block"]
+    assert cen.phase.value == "upon" and cen.proactive and cen.thresholds["max_offset"] == pytest.approx(0.015)
+    assert "tower_green_block_on_red_block" in by_id
+
+
+def _subgoal(gen, objs, n):
+    """The n-th subgoal (0-based) of the success path."""
+    prev = None
+    for _ in range(n + 1):
+        prev = gen.next_subgoal(STACK, IMG, objs, prev, "success" if prev else None)
+    return prev
+
+
+@pytest.mark.parametrize(
+    ("feedback", "skill", "obj"),
+    [
+        ("failed: attached_green_block: green_block dropped: detached from the suction cup", "pick", "green_block"),
+        ("green_block is offset 0.021 m from the centre of red_block: stacking on it will topple", "pick",
+         "green_block"),
+        ("red_block moved 0.030 m: the tower below is disturbed", "pick", "green_block"),
+        ("green_block is still held by the suction cup on red_block", "place_on", "green_block"),
+        ("something unexpected", "place_on", "green_block"),
+    ],
+)
+def test_stack_recovery_after_place_green(feedback, skill, obj):
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    place_green = _subgoal(gen, objs, 1)
+    nxt = gen.next_subgoal(STACK, IMG, objs, place_green, feedback)
+    assert (nxt.action.skill, nxt.action.args["obj"]) == (skill, obj)
+
+
+def test_stack_collapse_while_placing_blue_restarts_from_green():
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    place_blue = _subgoal(gen, objs, 3)
+    fb = "green_block is no longer on red_block (height difference 0.001 m): the tower collapsed"
+    nxt = gen.next_subgoal(STACK, IMG, objs, place_blue, fb)
+    assert nxt.action.to_dict() == {"skill": "pick", "args": {"obj": "green_block"}}
+    fb = "blue_block dropped: detached from the suction cup (0.200 m from the tip) before resting on green_block"
+    assert gen.next_subgoal(STACK, IMG, objs, place_blue, fb).action.args == {"obj": "blue_block"}
+
+
+def test_failed_pick_picks_again():
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    pick = gen.next_subgoal(STACK, IMG, objs)
+    nxt = gen.next_subgoal(STACK, IMG, objs, pick, "green_block is not held by the suction cup: 0.090 m from the tip")
+    assert nxt.action.to_dict() == {"skill": "pick", "args": {"obj": "green_block"}}
+
+
+def test_feedback_categories():
+    assert classify(None) == "success" and classify("success") == "success"
+    assert classify("subgoal completed") == "success"
+    assert classify("X is not held") == "dropped"
+    assert classify("X is offset 0.02 m") == "offset"
+    assert classify("the tower collapsed") == "collapse"
+
+
+def test_tower_order_reads_colours_in_order():
+    objs = ["blue_block", "red_block", "green_block"]
+    assert tower_order("stack: blue at the bottom, then red, then green", objs) == ("blue_block", "red_block",
+                                                                                    "green_block")
+    assert tower_order("stack green on red, blue on top", objs)[-1] == "blue_block"
+
+
+# --- programs on constructed states --------------------------------------------------------------
+
+
+def test_pick_program_verdicts(make_elements, run_program):
+    gen, coder = gen_coder()
+    sg = gen.next_subgoal(STACK, IMG, infer_objects(STACK))
+    held = {("robot", "tip"): [0.5, 0, 0.12], ("green_block", ""): [0.5, 0, 0.10]}
+    src, els = program_for(coder, sg, make_elements, held)
+    ok, reason, margin = run_program(src, els)["held_green_block"]
+    assert ok is True and margin > 0
+    on_table = {("robot", "tip"): [0.5, 0, 0.12], ("green_block", ""): [0.5, 0, 0.02]}
+    ok, reason, margin = run_program(src, make_elements(sg, on_table))["held_green_block"]
+    assert ok is False and "not held" in reason and margin < 0
+    assert classify(reason) == "dropped"
+
+
+def _place_state(x_xyz, tip_xyz, target_xyz=(0.5, 0.0, 0.02)):
+    return {("robot", "tip"): tip_xyz, ("green_block", ""): x_xyz, ("red_block", ""): target_xyz}
+
+
+def test_place_program_verdicts(make_elements, run_program):
+    gen, coder = gen_coder()
+    objs = infer_objects(STACK)
+    sg = _subgoal(gen, objs, 1)
+    src, els = program_for(coder, sg, make_elements, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.16]))
+    v = run_program(src, els)
+    assert v["attached_green_block"][0] is True  # carried
+    assert v["centred_green_block_on_red_block"][0] is False  # not placed yet: upon not met
+    # dropped on the table on the way
+    v = run_program(src, make_elements(sg, _place_state([0.4, 0.1, 0.02], [0.4, 0.1, 0.16])))
+    assert v["attached_green_block"][0] is False and classify(v["attached_green_block"][1]) == "dropped"
+    # placed and released, centred
+    v = run_program(src, make_elements(sg, _place_state([0.505, 0.0, 0.06], [0.5, 0.0, 0.15])))
+    assert v["attached_green_block"][0] is True
+    assert v["centred_green_block_on_red_block"][0] is True
+    # placed 2.5 cm off centre: proactive failure, recovered by re-picking
+    v = run_program(src, make_elements(sg, _place_state([0.525, 0.0, 0.06], [0.52, 0.0, 0.15])))
+    ok, reason, margin = v["centred_green_block_on_red_block"]
+    assert ok is False and margin < 0 and classify(reason) == "offset"
+    # the block below was pushed 3 cm during the placement
+    els = make_elements(sg, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.16]))
+    hist = [np.stack([e.points, e.points]) for e in els]
+    red_id = next(e.id for e in els if e.owner == ("red_block", ""))
+    hist[red_id] = np.stack([els[red_id].points - [0.03, 0, 0], els[red_id].points])
+    v = run_program(src, els, hist)
+    assert v["still_red_block"][0] is False and classify(v["still_red_block"][1]) == "collapse"
+
+
+def test_place_blue_tower_check(make_elements, run_program):
+    gen, coder = gen_coder()
+    sg = _subgoal(gen, infer_objects(STACK), 3)
+    pts = {("robot", "tip"): [0.4, 0.1, 0.2], ("blue_block", ""): [0.4, 0.1, 0.18],
+           ("green_block", ""): [0.5, 0.0, 0.06], ("red_block", ""): [0.5, 0.0, 0.02]}
+    src, els = program_for(coder, sg, make_elements, pts)
+    assert run_program(src, els)["tower_green_block_on_red_block"][0] is True
+    pts[("green_block", "")] = [0.56, 0.0, 0.02]  # fell off
+    ok, reason, _ = run_program(src, make_elements(sg, pts))["tower_green_block_on_red_block"]
+    assert ok is False and classify(reason) == "collapse"
+
+
+def _zone_and_blocks(n_in: int, n_total: int = 40):
+    pts = {("zone", "surface"): [[0.3, -0.1, 0.0], [0.5, -0.1, 0.0], [0.5, 0.1, 0.0], [0.3, 0.1, 0.0]]}
+    for i in range(n_total):
+        x = 0.31 + 0.18 * (i % 7) / 6 if i < n_in else 0.7 + 0.01 * (i % 7)
+        pts[(f"block_{i:02d}", "")] = [x, -0.09 + 0.18 * (i // 7) / 6, 0.02]
+    return pts
+
+
+def test_sweep_plan_and_program(make_elements, run_program):
+    gen, coder = gen_coder()
+    objs = infer_objects(SWEEP)
+    sg = gen.next_subgoal(SWEEP, IMG, objs)
+    assert sg.action.to_dict() == {"skill": "push_into_region", "args": {"region": "zone"}}
+    upon = sg.upon()[0]
+    assert 16 <= upon.thresholds["target"] <= 24
+    assert (upon.thresholds["lower"], upon.thresholds["upper"]) == (16, 24)
+    assert "halts at" in gen.last_output.reasoning
+    zone = next(p for p in upon.parts if p.obj == "zone")
+    assert (zone.part, zone.kind.value) == ("surface", "surface")
+    src, els = program_for(coder, sg, make_elements, _zone_and_blocks(5))
+    v = run_program(src, els)
+    assert v[upon.id][0] is False and v[sg.during()[0].id][0] is True
+    v = run_program(src, make_elements(sg, _zone_and_blocks(int(upon.thresholds["target"]))))
+    assert v[upon.id][0] is True
+    v = run_program(src, make_elements(sg, _zone_and_blocks(30)))
+    assert v[upon.id][0] is False and v[sg.during()[0].id][0] is False
+    assert gen.next_subgoal(SWEEP, IMG, objs, sg, "success").done
+
+
+def test_rope_plan_and_program(make_elements, run_program):
+    gen, coder = gen_coder()
+    objs = [*infer_objects(ROPE), "rope/bead_00", "rope/bead_15"]
+    sg = gen.next_subgoal(ROPE, IMG, objs)
+    assert sg.action.to_dict() == {"skill": "close_shape", "args": {"rope": "rope", "shape": "square"}}
+    parts = [(p.obj, p.part) for p in sg.constraints[0].parts]
+    assert parts == [("rope", "bead_00"), ("rope", "bead_15"), ("square", "corner_0"), ("square", "corner_3")]
+    closed = {("rope", "bead_00"): [0.51, 0.1, 0.01], ("rope", "bead_15"): [0.49, -0.1, 0.01],
+              ("square", "corner_0"): [0.5, -0.1, 0.0], ("square", "corner_3"): [0.5, 0.1, 0.0]}
+    src, els = program_for(coder, sg, make_elements, closed)
+    assert run_program(src, els)["ends_at_opening"][0] is True
+    closed[("rope", "bead_15")] = [0.4, -0.3, 0.01]
+    assert run_program(src, make_elements(sg, closed))["ends_at_opening"][0] is False
+    assert gen.next_subgoal(ROPE, IMG, objs, sg, "success").done
+
+
+def test_every_subgoal_program_passes_the_static_check():
+    gen, coder = gen_coder()
+    for instr in (STACK, SWEEP, ROPE):
+        objs, prev = infer_objects(instr), None
+        for _ in range(6):
+            sg = gen.next_subgoal(instr, IMG, objs, prev, "success" if prev else None)
+            if sg.done:
+                break
+            specs = legend_specs(sg)
+            els = [Element(i, s.name, s.kind, np.eye(3)[: s.kind.min_points] + i, (s.obj, s.part))
+                   for i, s in enumerate(specs)]
+            coder.write_program(sg, els, IMG, basic_check([c.id for c in sg.constraints]))
+            prev = sg
+        assert sg.done, instr
+
+
+def test_kb_is_deterministic_and_honest_about_itself():
+    be = KBBackend()
+    gen = ConstraintGenerator(be)
+    msgs = gen.build_messages(STACK, IMG, infer_objects(STACK), None, None)
+    a, b = be.complete(msgs, purpose="constraint_generator"), be.complete(msgs, purpose="constraint_generator")
+    assert a == b and a.model == "kb-rules-v1" and a.estimated
+    assert a.text.startswith("```json")
+
+
+def test_kb_unknown_instruction_is_a_clear_error():
+    gen, _ = gen_coder()
+    with pytest.raises(VLMError, match="no rule for instruction"):
+        gen.next_subgoal("pour the tea into the cup", IMG, ["teapot", "cup"])
