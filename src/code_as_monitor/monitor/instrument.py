@@ -47,8 +47,8 @@ class Branch:
 
 def _mark(k: int, lineno: int) -> ast.stmt:
     call = ast.Call(func=ast.Name(id=MARKER, ctx=ast.Load()), args=[ast.Constant(k)], keywords=[])
-    stmt = ast.Expr(value=call)
-    return ast.fix_missing_locations(ast.copy_location(stmt, ast.Pass(lineno=lineno, col_offset=0)))
+    stmt = ast.Expr(value=call, lineno=lineno, col_offset=0, end_lineno=lineno, end_col_offset=0)
+    return ast.fix_missing_locations(stmt)
 
 
 class _Instrumenter(ast.NodeTransformer):

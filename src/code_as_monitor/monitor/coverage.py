@@ -1,0 +1,174 @@
+"""White-box path coverage of a monitor program at subgoal start (paper, supplementary).
+
+:func:`check_path_coverage` loads the branch-instrumented program into a sandbox worker (never into
+this process), evaluates it on the current element state and on perturbations of it
+(:func:`~code_as_monitor.monitor.perturb.make_probes`), and collects
+
+* checks that raise, return a malformed result or overrun the deadline, with the input that did it;
+* branches no input reaches (with their lines);
+* ``during`` checks that already fail on the unperturbed starting state (the subgoal would halt at once).
+
+Any of these raises :class:`CoverageError` (a :class:`~code_as_monitor.core.errors.ProgramError`) whose
+message goes back to the coder for a bounded number of regenerations.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from code_as_monitor.core.constraints import Constraint, Phase
+from code_as_monitor.core.errors import ProgramError
+from code_as_monitor.monitor.instrument import Branch, instrument
+from code_as_monitor.monitor.perturb import make_probes
+from code_as_monitor.monitor.sandbox import Sandbox
+from code_as_monitor.monitor.validate import validate_program
+
+MAX_LISTED = 12
+MAX_OVERRUNS = 2
+
+
+@dataclass
+class CoverageReport:
+    """What path coverage found.
+
+    Attributes:
+        branches: the branch table of the instrumented program.
+        covered: ids of the branches some input reached.
+        n_inputs: how many inputs were evaluated (the current state plus perturbations).
+        faults: "check: reason (on input)" for every distinct exception / malformed result / overrun.
+        unreached: the branches no input reached (in functions that were entered at least once).
+        failing_at_start: "check: reason" of ``during`` checks already violated on the starting state.
+    """
+
+    branches: list[Branch]
+    covered: set[int] = field(default_factory=set)
+    n_inputs: int = 0
+    faults: list[str] = field(default_factory=list)
+    unreached: list[Branch] = field(default_factory=list)
+    failing_at_start: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not (self.faults or self.unreached or self.failing_at_start)
+
+    @property
+    def fraction(self) -> float:
+        """Covered share of the branches (1.0 for a program without branches)."""
+        return len(self.covered) / len(self.branches) if self.branches else 1.0
+
+    def message(self) -> str:
+        """The feedback for the coder: every problem, most important first."""
+        lines: list[str] = []
+        if self.faults:
+            lines.append("the program fails on some inputs:")
+            lines += [f"  - {f}" for f in self.faults[:MAX_LISTED]]
+        if self.failing_at_start:
+            lines.append("'during' checks that already fail on the starting state (the subgoal would stop at once):")
+            lines += [f"  - {f}" for f in self.failing_at_start]
+        if self.unreached:
+            lines.append(f"branches no input reached ({len(self.covered)}/{len(self.branches)} covered over "
+                         f"{self.n_inputs} inputs); remove dead code or fix the conditions:")
+            lines += [f"  - {b.describe()}" for b in self.unreached[:MAX_LISTED]]
+        return "path coverage failed:\n" + "\n".join(lines) if lines else "path coverage passed"
+
+
+class CoverageError(ProgramError):
+    """Path coverage found problems; ``report`` holds the details, ``str()`` the coder feedback."""
+
+    def __init__(self, report: CoverageReport) -> None:
+        super().__init__(report.message())
+        self.report = report
+
+
+SandboxSource = Sandbox | Callable[[], Sandbox]
+
+
+def check_path_coverage(
+    source: str,
+    constraints: list[Constraint],
+    elements: dict[int, np.ndarray],
+    history: dict[int, np.ndarray] | None,
+    history_t: np.ndarray | None,
+    t: float,
+    sandbox_or_factory: SandboxSource,
+    n_perturbations: int = 96,
+    seed: int = 0,
+    deadline_s: float | None = None,
+    require_full_coverage: bool = True,
+) -> CoverageReport:
+    """Drive every branch of every check with the current state and perturbations of it.
+
+    Args:
+        source: the monitor program (validated here again).
+        constraints: the subgoal's constraints (order = verdict order).
+        elements: element id -> (k, 3) current points, world metres.
+        history: element id -> (T, k, 3) oldest first, or None (T = 1).
+        history_t: (T,) seconds, or None.
+        t: current time, seconds.
+        sandbox_or_factory: a started :class:`Sandbox` (its loaded program is replaced by the
+            instrumented one; load the real program afterwards) or a callable returning a new one,
+            which is started and closed here.
+        n_perturbations: perturbed inputs besides the current state.
+        seed: seed of the perturbations (deterministic).
+        deadline_s: per-input deadline; default: 5x the sandbox deadline, at least 100 ms (coverage
+            runs once per subgoal, not in the control loop, and instrumentation costs a little).
+        require_full_coverage: False tolerates unreached branches (still listed in the report).
+    Returns:
+        The report, when nothing is wrong.
+    Raises:
+        CoverageError: exceptions, malformed results, overruns, unreached branches or ``during``
+            checks failing at the start; the message lists them with the inputs that caused them.
+        ProgramError: the program does not pass static validation or does not load.
+    """
+    tree = validate_program(source, constraints)
+    _, branches = instrument(tree)
+    own = not isinstance(sandbox_or_factory, Sandbox)
+    sandbox = sandbox_or_factory() if own else sandbox_or_factory
+    try:
+        if own:
+            sandbox.start()
+        sandbox.load(source, constraints, coverage=True)
+        if sandbox.n_branches != len(branches):
+            raise ProgramError(f"branch tables differ between control process ({len(branches)}) and worker "
+                               f"({sandbox.n_branches})")
+        deadline = deadline_s if deadline_s is not None else max(5 * sandbox.deadline_s, 0.1)
+        report = CoverageReport(branches=branches)
+        seen: set[tuple[str, str]] = set()
+        overruns = 0
+        probes = make_probes(elements, history, history_t, t, n_perturbations, seed)
+        for k, probe in enumerate(probes):
+            restarts = sandbox.n_restarts
+            verdicts = sandbox.evaluate(probe.elements, probe.history, probe.history_t, t, deadline_s=deadline)
+            report.n_inputs += 1
+            if sandbox.n_restarts != restarts:  # overrun or crash: the worker was replaced
+                overruns += 1
+                ids = ", ".join(c.function_name for c in constraints)
+                report.faults.append(f"one of {ids}: {verdicts[0].reason.removeprefix('fault: ')} "
+                                     f"(input {k}: {probe.description})")
+                sandbox.start()  # wait for the replacement (it reloads the instrumented program)
+                if overruns >= MAX_OVERRUNS:
+                    break  # each overrun costs a worker restart; the fault is already reported
+                continue
+            report.covered.update(sandbox.last_marks)
+            for v in verdicts:
+                if v.fault and (v.constraint_id, v.reason) not in seen:
+                    seen.add((v.constraint_id, v.reason))
+                    report.faults.append(f"check_{v.constraint_id}: {v.reason.removeprefix('fault: ')} "
+                                         f"(input {k}: {probe.description})")
+                elif k == 0 and not v.fault and not v.ok and v.phase is Phase.DURING:
+                    report.failing_at_start.append(f"check_{v.constraint_id}: returned False, {v.reason!r}")
+        if overruns >= MAX_OVERRUNS:
+            report.faults.append(f"stopped after {overruns} overruns/crashes ({report.n_inputs} of {len(probes)} "
+                                 "inputs tried); branch coverage not assessed")
+            report.covered.clear()
+        entered = {b.function for b in branches if b.kind == "entry" and b.id in report.covered}
+        report.unreached = [b for b in branches if b.id not in report.covered and b.function in entered]
+    finally:
+        if own:
+            sandbox.close()
+    if report.faults or report.failing_at_start or (report.unreached and require_full_coverage):
+        raise CoverageError(report)
+    return report

@@ -1,0 +1,166 @@
+"""Perturbations of an element state, used to drive every branch of a monitor program at subgoal start.
+
+Each perturbation is a plausible-but-different world: elements translated by a few centimetres or up
+to ~0.3 m, raised or lowered, lines and surfaces rotated, elements moved apart or together, points
+piled on one another (degenerate lines and surfaces), elements swapped, and histories that are
+static, moving, short (T = 1, 2) or longer. Every array is world frame, metres; times are seconds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+State = tuple[dict[int, np.ndarray], dict[int, np.ndarray], np.ndarray]
+"""(elements id -> (k, 3), history id -> (T, k, 3), history times (T,))."""
+
+
+@dataclass
+class Probe:
+    """One input for path coverage: a description (for the coder) and the state to evaluate."""
+
+    description: str
+    elements: dict[int, np.ndarray]
+    history: dict[int, np.ndarray]
+    history_t: np.ndarray
+
+
+def _fmt(v: np.ndarray) -> str:
+    return "[" + ", ".join(f"{x:+.2f}" for x in v) + "]"
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    axis = axis / max(np.linalg.norm(axis), 1e-12)
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
+
+
+def normalise_state(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
+                    history_t: np.ndarray | None, t: float) -> State:
+    """Float64 copies; a missing history (or element) becomes the current frame alone (T = 1)."""
+    E = {int(i): np.array(p, dtype=np.float64).reshape(-1, 3) for i, p in elements.items()}
+    if not history:
+        return E, {i: p[None].copy() for i, p in E.items()}, np.array([t], dtype=np.float64)
+    H = {int(i): np.array(h, dtype=np.float64) for i, h in history.items()}
+    T = next(iter(H.values())).shape[0]
+    Ht = np.array(history_t, dtype=np.float64) if history_t is not None else t - _dt(None) * np.arange(T)[::-1]
+    for i, p in E.items():
+        if i not in H:
+            H[i] = np.repeat(p[None], T, axis=0)
+    return E, H, Ht
+
+
+def _dt(history_t: np.ndarray | None) -> float:
+    if history_t is None or len(history_t) < 2:
+        return 1.0 / 30.0
+    d = float(np.median(np.diff(history_t)))
+    return d if d > 0 else 1.0 / 30.0
+
+
+def _times(T: int, t: float, dt: float) -> np.ndarray:
+    return t - dt * np.arange(T, dtype=np.float64)[::-1]
+
+
+def _map_elements(state: State, fns: dict[int, Callable[[np.ndarray], np.ndarray]]) -> State:
+    """Apply a per-element point map to the current points and to every history frame."""
+    E, H, Ht = state
+    E2 = {i: (fns[i](p) if i in fns else p.copy()) for i, p in E.items()}
+    H2 = {i: (np.stack([fns[i](f) for f in h]) if i in fns else h.copy()) for i, h in H.items()}
+    return E2, H2, Ht.copy()
+
+
+def _with_history(state: State, T: int, t: float, start_offset: np.ndarray | None) -> State:
+    """Replace the history by T frames ending at the current points: static, or moving from an offset."""
+    E, _, Ht = state
+    dt = _dt(Ht)
+    H = {}
+    for i, p in E.items():
+        if start_offset is None or T == 1:
+            H[i] = np.repeat(p[None], T, axis=0)
+        else:
+            w = np.linspace(1.0, 0.0, T)[:, None, None]
+            H[i] = p[None] + w * start_offset[None, None, :]
+    return {i: p.copy() for i, p in E.items()}, H, _times(T, t, dt)
+
+
+def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
+                history_t: np.ndarray | None, t: float, n: int, seed: int = 0) -> list[Probe]:
+    """The unperturbed state first, then ``n`` perturbations cycling through the families above."""
+    base = normalise_state(elements, history, history_t, t)
+    probes = [Probe("the current state (unperturbed)", *base)]
+    ids = sorted(base[0])
+    if not ids:
+        return probes
+    rng = np.random.default_rng(seed)
+    T0 = next(iter(base[1].values())).shape[0]
+    centre = np.mean([p.mean(axis=0) for p in base[0].values()], axis=0)
+
+    def translate_all(scale: float) -> Probe:
+        offs = {i: rng.uniform(-scale, scale, 3) for i in ids}
+        desc = ", ".join(f"{i}: {_fmt(o)}" for i, o in offs.items())
+        return Probe(f"every element translated (m) {desc}",
+                     *_map_elements(base, {i: (lambda p, o=o: p + o) for i, o in offs.items()}))
+
+    def translate_one(axis_z: bool) -> Probe:
+        i = ids[int(rng.integers(len(ids)))]
+        o = np.zeros(3)
+        if axis_z:
+            o[2] = rng.choice([-1.0, 1.0]) * rng.uniform(0.02, 0.3)
+        else:
+            o = rng.uniform(-0.3, 0.3, 3)
+        return Probe(f"element {i} translated by {_fmt(o)} m", *_map_elements(base, {i: lambda p: p + o}))
+
+    def rotate() -> Probe:
+        i = ids[int(rng.integers(len(ids)))]
+        axis = rng.normal(size=3)
+        angle = rng.uniform(0.2, np.pi / 2) * rng.choice([-1.0, 1.0])
+        R = _rotation(axis, angle)
+        c = base[0][i].mean(axis=0)
+        return Probe(f"element {i} rotated by {np.degrees(angle):.0f} deg about its centroid, axis {_fmt(axis)}",
+                     *_map_elements(base, {i: lambda p: (p - c) @ R.T + c}))
+
+    def scale_about_centre(s: float) -> Probe:
+        word = "apart" if s > 1 else "together"
+        shifts = {i: (p0.mean(axis=0) - centre) * (s - 1.0) for i, p0 in base[0].items()}
+        fns = {i: (lambda p, d=d: p + d) for i, d in shifts.items()}
+        return Probe(f"elements moved {word} (centroid distances to the scene centre x{s:.2f})",
+                     *_map_elements(base, fns))
+
+    def pile(all_elements: bool) -> Probe:
+        if all_elements:
+            fns = {i: (lambda p: np.repeat(centre[None], len(p), axis=0)) for i in ids}
+            return Probe(f"every point of every element piled at {_fmt(centre)}", *_map_elements(base, fns))
+        fns = {i: (lambda p: np.repeat(p.mean(axis=0, keepdims=True), len(p), axis=0)) for i in ids}
+        return Probe("each element's points piled on its centroid (degenerate lines and surfaces)",
+                     *_map_elements(base, fns))
+
+    def swap() -> Probe:
+        if len(ids) < 2:
+            return translate_one(False)
+        a, b = rng.choice(ids, 2, replace=False)
+        d = base[0][b].mean(axis=0) - base[0][a].mean(axis=0)
+        return Probe(f"elements {a} and {b} swapped places",
+                     *_map_elements(base, {int(a): lambda p: p + d, int(b): lambda p: p - d}))
+
+    def history_variant() -> Probe:
+        T = int(rng.choice([1, 2, 3, max(T0, 2), 2 * max(T0, 5)]))
+        if rng.random() < 0.4:
+            return Probe(f"static history of T={T} frames", *_with_history(base, T, t, None))
+        o = rng.uniform(-0.3, 0.3, 3)
+        return Probe(f"history of T={T} frames moving by {_fmt(-o)} m to the current points",
+                     *_with_history(base, T, t, o))
+
+    families: list[Callable[[], Probe]] = [
+        lambda: translate_all(0.03), lambda: translate_one(False), lambda: translate_one(True),
+        lambda: translate_all(0.3), rotate, history_variant, lambda: scale_about_centre(rng.uniform(1.5, 4.0)),
+        lambda: scale_about_centre(rng.uniform(0.0, 0.5)), swap, lambda: translate_all(0.1),
+    ]
+    fixed = [lambda: pile(False), lambda: pile(True),
+             lambda: Probe("history of T=1 frame (just the current points)", *_with_history(base, 1, t, None)),
+             lambda: scale_about_centre(0.0)]
+    for k in range(n):
+        make = fixed[k] if k < len(fixed) else families[(k - len(fixed)) % len(families)]
+        probes.append(make())
+    return probes
