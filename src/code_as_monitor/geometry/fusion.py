@@ -34,14 +34,15 @@ def fuse_points(clouds: Sequence[np.ndarray]) -> np.ndarray:
 
 
 def voxel_keys(points: np.ndarray, voxel_size: float, origin: np.ndarray | None = None) -> np.ndarray:
-    """(N,) int64 id of the voxel (edge ``voxel_size`` metres, grid anchored at ``origin``) of each point.
+    """(N,) int64 id of the voxel (edge ``voxel_size`` metres) of each point.
 
-    Two points share an id exactly when they fall in the same voxel.
+    The grid is anchored at ``origin`` (default the world origin, so the grid does not move with the
+    cloud). Two points share an id exactly when they fall in the same voxel.
     """
     P = _as_cloud(points)
     if not voxel_size > 0:
         raise GeometryError(f"voxel_size must be > 0, got {voxel_size!r}")
-    o = P.min(axis=0) if origin is None else np.asarray(origin, dtype=np.float64)
+    o = np.zeros(3) if origin is None else np.asarray(origin, dtype=np.float64)
     ijk = np.floor((P - o) / voxel_size).astype(np.int64)
     ijk -= ijk.min(axis=0) if len(ijk) else 0
     dims = ijk.max(axis=0) + 1 if len(ijk) else np.ones(3, np.int64)

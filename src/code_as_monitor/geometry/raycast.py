@@ -118,7 +118,7 @@ class Cylinder:
         for f, s in ((1, 1.0), (2, -1.0)):
             with np.errstate(divide="ignore", invalid="ignore"):
                 tc = (s * self.half_length - oa) / da
-            q = o_perp + tc[:, None] * d_perp
+                q = o_perp + tc[:, None] * d_perp
             ok = np.isfinite(tc) & (tc > _EPS) & (np.einsum("ij,ij->i", q, q) <= self.radius**2) & (tc < t)
             t = np.where(ok, tc, t)
             face = np.where(ok, f, face)

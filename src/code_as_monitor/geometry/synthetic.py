@@ -66,6 +66,7 @@ class SyntheticScene:
             for part in dict.fromkeys(obj.parts):
                 self._ids[(obj.name, part)] = len(self._ids) + 1
                 self.labels[self._ids[(obj.name, part)]] = (obj.name, part)
+        self._renders: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def object(self, name: str) -> SceneObject:
         for o in self.objects:
@@ -74,7 +75,16 @@ class SyntheticScene:
         raise ElementError(f"no object {name!r} in the synthetic scene; have {[o.name for o in self.objects]}")
 
     def render(self, camera: CameraModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Noise-free ``(rgb (H, W, 3) uint8, depth (H, W) float32 metres (0 = no hit), seg (H, W) int32)``."""
+        """Noise-free ``(rgb (H, W, 3) uint8, depth (H, W) float32 metres (0 = no hit), seg (H, W) int32)``.
+
+        Cached per camera (the scene's objects are fixed); callers get copies.
+        """
+        key = (camera.name, camera.K.tobytes(), camera.T_world_cam.tobytes())
+        if key not in self._renders:
+            self._renders[key] = self._render(camera)
+        return tuple(a.copy() for a in self._renders[key])  # type: ignore[return-value]
+
+    def _render(self, camera: CameraModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         depth, index, face = cast([o.shape for o in self.objects], camera)
         seg = np.zeros(depth.shape, dtype=np.int32)
         rgb = np.full((*depth.shape, 3), 40, dtype=np.uint8)
