@@ -1,0 +1,63 @@
+"""ElementKind / ElementSpec / Element: parsing, constructors, validation, serialisation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from code_as_monitor.core.elements import PALETTE, Element, ElementKind, ElementSpec, color_for
+from code_as_monitor.core.errors import ElementError
+
+
+def test_kind_parse_and_counts() -> None:
+    assert ElementKind.parse(" Surface ") is ElementKind.SURFACE
+    assert ElementKind.parse(ElementKind.LINE) is ElementKind.LINE
+    assert (ElementKind.SURFACE.min_points, ElementKind.SURFACE.max_points) == (3, 4)
+    with pytest.raises(ElementError, match=r"unknown element kind 'blob'.*point, line, surface"):
+        ElementKind.parse("blob")
+
+
+def test_spec_round_trip_and_validation() -> None:
+    s = ElementSpec("pen axis", "pen", "body", "line")
+    assert s.kind is ElementKind.LINE
+    assert ElementSpec.from_dict(s.to_dict()) == s
+    assert ElementSpec.from_dict({"name": "x", "obj": "cup"}).kind is ElementKind.POINT
+    with pytest.raises(ElementError, match="'cone'"):
+        ElementSpec("x", "cup", "", "cone")
+
+
+def test_constructors_and_colours() -> None:
+    p = Element.point(1, "tip", np.array([0.1, 0.2, 0.3]), ("robot", "tip"))
+    assert p.points.shape == (1, 3) and p.color == color_for(1) == PALETTE[1]
+    assert color_for(len(PALETTE) + 2) == PALETTE[2]
+    L = Element.line(2, "pen", np.zeros(3), np.ones(3))
+    assert L.kind is ElementKind.LINE and L.points.shape == (2, 3)
+    S = Element.surface(3, "top", np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), color=(1, 2, 3))
+    assert S.color == (1, 2, 3)
+    np.testing.assert_allclose(S.centroid(), [0.5, 0.5, 0.0])
+    assert Element(0, "flat", "point", np.zeros(3)).points.shape == (1, 3)  # (3,) accepted for a point
+
+
+def test_round_trip() -> None:
+    S = Element.surface(3, "top", np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0.123456789]]), ("box", "top"))
+    back = Element.from_dict(S.to_dict())
+    assert (back.id, back.name, back.kind, back.owner, back.color) == (3, "top", S.kind, ("box", "top"), S.color)
+    np.testing.assert_allclose(back.points, S.points, atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("kind", "pts", "message"),
+    [
+        ("point", np.zeros((2, 3)), "needs 1-1 points, got 2"),
+        ("line", np.zeros((1, 3)), "needs 2-2 points, got 1"),
+        ("surface", np.zeros((5, 3)), "needs 3-4 points, got 5"),
+        ("point", np.zeros((1, 2)), r"must be \(k, 3\)"),
+        ("point", np.full((1, 3), np.nan), "NaN or inf"),
+        ("line", np.zeros((2, 3)), "end points coincide"),
+        ("surface", np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2.0]]), "collinear"),
+        ("ribbon", np.zeros((1, 3)), "unknown element kind 'ribbon'"),
+    ],
+)
+def test_validation_names_the_problem(kind: str, pts: np.ndarray, message: str) -> None:
+    with pytest.raises(ElementError, match=message):
+        Element(0, "e", kind, pts)  # type: ignore[arg-type]
