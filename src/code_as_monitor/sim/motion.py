@@ -1,0 +1,61 @@
+"""Smooth waypoint motion: minimum-jerk interpolation of the tool tip between Cartesian waypoints.
+
+Every generator here yields once per control tick after setting the robot's motor targets; the
+caller ticks the world. Positions are world metres, yaw radians, speeds m/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from code_as_monitor.sim.world import World
+
+TRANSIT_SPEED = 0.4  # m/s, free-space moves
+SLOW_SPEED = 0.15  # m/s, descending to contact / releasing
+PUSH_SPEED = 0.25  # m/s, spatula strokes
+YAW_RATE = 2.0  # rad/s
+
+
+def min_jerk(s: float) -> float:
+    """Minimum-jerk time scaling: 0 -> 0, 1 -> 1 with zero velocity and acceleration at both ends."""
+    return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+
+
+def wrap_angle(a: float) -> float:
+    return float((a + np.pi) % (2 * np.pi) - np.pi)
+
+
+class Mover:
+    """Keeps the commanded tip pose and produces smooth moves from it."""
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self.sync()
+
+    def sync(self) -> None:
+        """Reset the commanded pose to the measured one (after a halt or at start)."""
+        self.tip = self.world.robot.tip().copy()
+        self.yaw = self.world.robot.yaw()
+
+    def move(self, target, yaw: float | None = None, speed: float = TRANSIT_SPEED, min_time: float = 0.15
+             ) -> Iterator[None]:
+        """Move the tip from the commanded pose to ``target`` (3,), yaw to ``yaw`` (None: keep)."""
+        world = self.world
+        target = np.asarray(target, dtype=float)
+        start, y0 = self.tip.copy(), self.yaw
+        y1 = y0 if yaw is None else y0 + wrap_angle(yaw - y0)
+        dur = max(float(np.linalg.norm(target - start)) / speed, abs(y1 - y0) / YAW_RATE, min_time)
+        n = max(1, round(dur / world.dt))
+        for k in range(1, n + 1):
+            s = min_jerk(k / n)
+            self.tip = start + s * (target - start)
+            self.yaw = y0 + s * (y1 - y0)
+            world.robot.move_tip(self.tip, self.yaw)
+            yield
+
+    def wait(self, seconds: float) -> Iterator[None]:
+        for _ in range(max(1, round(seconds / self.world.dt))):
+            self.world.robot.hold()
+            yield

@@ -1,0 +1,238 @@
+"""Scripted open-loop demonstrators (CLIPort-oracle style) behind :class:`core.policy.Policy`.
+
+The policy computes its targets from the *current* ground-truth object poses when an action starts
+(and, for the looping skills, at the start of each stroke/adjustment), then plays smooth waypoint
+motions one control tick per :meth:`ScriptedPolicy.step`. It never reacts to disturbances during
+an action: a dropped block is not re-picked, a toppled tower is not noticed.
+
+Driving it from outside (the agent)::
+
+    policy.start(Action("pick", {"obj": "green_block"}))
+    while not policy.done:
+        policy.step()                 # one control tick; the world advances with it
+        if world.frame_due():
+            obs = world.observe()     # render + monitor
+            if violated: policy.halt()  # the arm stops at once; suction state is kept
+
+``step()`` after ``done`` holds the arm and still advances the world one tick.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.core.constraints import Action
+from code_as_monitor.core.errors import SimError
+from code_as_monitor.sim.motion import PUSH_SPEED, SLOW_SPEED, Mover, wrap_angle
+from code_as_monitor.sim.world import World
+
+CARRY_Z = 0.16  # tip height for carrying above the scene, metres
+APPROACH = 0.06  # clearance above a surface before the slow descent, metres
+PUSH_Z = 0.01  # spatula tip height during a stroke, metres
+SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
+    "pick": (("obj",), "suction"),
+    "place_on": (("obj", "target"), "suction"),
+    "push_into_region": (("region",), "spatula"),
+    "close_shape": (("rope", "shape"), "suction"),
+}
+
+
+class ScriptedPolicy:
+    """Oracle pick-and-place / push / rope-adjustment policy for one world and task."""
+
+    def __init__(self, world: World, task: Any) -> None:
+        self.world = world
+        self.task = task
+        self.mover = Mover(world)
+        self._gen: Iterator[None] | None = None
+        self.action: Action | None = None
+        self.halted = False
+
+    # --- Policy protocol ----------------------------------------------------------------------------
+    def start(self, action: Action) -> None:
+        """Begin ``action``; SimError naming an unknown skill, a missing argument or an unknown object."""
+        self.validate(action)
+        self.action = action
+        self.halted = False
+        self.world.halted_at = None
+        self.mover.sync()
+        self._gen = getattr(self, "_" + action.skill)(**action.args)
+        self.world.events.log(self.world.t, "action_start", action.args.get("obj", ""), skill=action.skill,
+                              args=action.args)
+
+    def step(self) -> None:
+        """Advance one control tick (the world ticks too)."""
+        if self._gen is not None:
+            try:
+                next(self._gen)
+            except StopIteration:
+                self._gen = None
+                a = self.action
+                assert a is not None
+                self.world.events.log(self.world.t, "action_done", a.args.get("obj", ""), skill=a.skill)
+                self.world.robot.hold()
+        else:
+            self.world.robot.hold()
+        self.world.tick()
+
+    def halt(self) -> None:
+        """Stop now: the arm holds its measured pose, suction state is kept."""
+        if self._gen is not None:
+            self._gen.close()
+            self._gen = None
+            a = self.action
+            self.world.events.log(self.world.t, "action_halted", a.args.get("obj", "") if a else "",
+                                  skill=a.skill if a else "")
+        self.halted = True
+        self.world.halted_at = self.world.t
+        self.world.robot.command(list(self.world.robot.joints()))
+        self.mover.sync()
+
+    @property
+    def done(self) -> bool:
+        return self._gen is None
+
+    # --- validation -----------------------------------------------------------------------------------------
+    def validate(self, action: Action) -> None:
+        if action.skill not in SKILLS:
+            raise SimError(f"unknown skill {action.skill!r}; known: {', '.join(SKILLS)}")
+        required, ee = SKILLS[action.skill]
+        missing = [k for k in required if k not in action.args]
+        if missing:
+            raise SimError(f"skill {action.skill!r} needs argument(s) {', '.join(missing)}; got {action.args}")
+        if self.world.robot.ee.kind != ee:
+            raise SimError(f"skill {action.skill!r} needs the {ee} end-effector; this task has "
+                           f"{self.world.robot.ee.kind}")
+        for k in required:
+            name = action.args[k]
+            if k == "target" and name == "table":
+                continue
+            if not isinstance(name, str) or not self._known(name):
+                raise SimError(f"skill {action.skill!r}: unknown object {name!r} for {k!r}; known: "
+                               f"{', '.join(sorted(self.world.objects))}")
+        xy = action.args.get("xy")
+        if xy is not None and (not isinstance(xy, (list, tuple)) or len(xy) != 2):
+            raise SimError(f"place_on: xy must be [x, y] metres, got {xy!r}")
+
+    def _known(self, name: str) -> bool:
+        obj, _, part = name.partition("/")
+        return obj in self.world.objects and (not part or part in self.world.objects[obj].parts)
+
+    # --- geometry helpers -------------------------------------------------------------------------------------
+    def _aabb(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounds (min (3,), max (3,)) of an object or part, world metres."""
+        import pybullet as pb
+
+        c = self.world.client
+        obj, _, part = name.partition("/")
+        if part:
+            b, link = self.world.objects[obj].parts[part]
+            lo, hi = pb.getAABB(b, link, physicsClientId=c)
+            return np.array(lo), np.array(hi)
+        so = self.world.objects[obj]
+        boxes = []
+        for b in so.bodies:
+            boxes.append(pb.getAABB(b, -1, physicsClientId=c))
+            for j in range(pb.getNumJoints(b, physicsClientId=c)):
+                boxes.append(pb.getAABB(b, j, physicsClientId=c))
+        return np.min([x[0] for x in boxes], 0), np.max([x[1] for x in boxes], 0)
+
+    def _yaw_of(self, name: str) -> float:
+        R = self.world.pose(name)[:3, :3]
+        return float(np.arctan2(R[1, 0], R[0, 0]))
+
+    def place_xy(self, action: Action) -> np.ndarray:
+        """The (2,) place position a ``place_on`` action aims at (its ``xy`` or the target's centre)."""
+        if action.args.get("xy") is not None:
+            return np.asarray(action.args["xy"], dtype=float)
+        target = action.args["target"]
+        if target == "table":
+            return self.world.robot.tip()[:2].copy()
+        return self.world.position(target)[:2]
+
+    def _lift(self, z: float = CARRY_Z) -> Iterator[None]:
+        if self.mover.tip[2] < z - 1e-3:
+            yield from self.mover.move([*self.mover.tip[:2], z], speed=SLOW_SPEED * 2)
+
+    def _suction_on(self) -> None:
+        ee = self.world.robot.ee
+        held = ee.activate(self.world.graspable)  # type: ignore[attr-defined]
+        self.world.events.log(self.world.t, "suction_on", self.world.name_of(held))
+
+    def _suction_off(self) -> None:
+        held = self.world.robot.ee.release()  # type: ignore[attr-defined]
+        self.world.events.log(self.world.t, "suction_off", self.world.name_of(held))
+
+    # --- skills -----------------------------------------------------------------------------------------------
+    def _pick(self, obj: str, lift: float = CARRY_Z) -> Iterator[None]:
+        hi = self._aabb(obj)[1]
+        xy = self.world.position(obj)[:2]
+        # suction is symmetric: align the tool's yaw with the object's (mod 90 degrees) nearest the current yaw
+        yaw = self.mover.yaw + wrap_angle(4 * (self._yaw_of(obj) - self.mover.yaw)) / 4
+        yield from self._lift(max(lift, hi[2] + APPROACH))
+        yield from self.mover.move([*xy, max(lift, hi[2] + APPROACH)], yaw)
+        yield from self.mover.move([*xy, hi[2] + APPROACH * 0.5], speed=SLOW_SPEED * 2)
+        yield from self.mover.move([*xy, hi[2] + 0.002], speed=SLOW_SPEED)
+        yield from self.mover.wait(0.1)
+        self._suction_on()
+        yield from self.mover.move([*xy, max(lift, hi[2] + APPROACH)], speed=SLOW_SPEED * 2)
+
+    def _place_on(self, obj: str, target: str, xy: list[float] | None = None) -> Iterator[None]:
+        dest = self.place_xy(Action("place_on", {"obj": obj, "target": target, "xy": xy}))
+        top = 0.0 if target == "table" else float(self._aabb(target)[1][2])
+        ee = self.world.robot.ee
+        held = ee.holding
+        tip = self.world.robot.tip()
+        # distance from the tip down to the held object's bottom (nominal block if nothing is held)
+        drop = float(tip[2] - self._aabb(self.world.name_of(held))[0][2]) if held is not None else 0.04
+        yaw = self.mover.yaw
+        if held is not None and target != "table":
+            yaw = self.mover.yaw + wrap_angle(4 * (self._yaw_of(target) - self._yaw_of(self.world.name_of(held)))) / 4
+        carry = max(CARRY_Z, top + drop + APPROACH)
+        yield from self._lift(carry)
+        yield from self.mover.move([*dest, carry], yaw)
+        yield from self.mover.move([*dest, top + drop + 0.02], speed=SLOW_SPEED * 2)
+        yield from self.mover.move([*dest, top + drop + 0.004], speed=SLOW_SPEED)
+        yield from self.mover.wait(0.1)
+        self._suction_off()
+        yield from self.mover.wait(0.1)
+        yield from self.mover.move([*dest, carry], speed=SLOW_SPEED * 2)
+
+    def _push_into_region(self, region: str) -> Iterator[None]:
+        task = self.task
+        center = task.region_center(self.world, region)
+        while True:
+            outside = [n for n in task.region_objects(region)
+                       if not task.region_contains(self.world, region, self.world.position(n)[:2])]
+            if not outside:
+                return
+            pts = np.array([self.world.position(n)[:2] for n in outside])
+            far = pts[int(np.argmax(np.linalg.norm(pts - center, axis=1)))]
+            d = center - far
+            d = d / max(np.linalg.norm(d), 1e-9)
+            start, end = far - d * 0.035, center - d * 0.02
+            yaw = float(np.arctan2(d[1], d[0]))
+            yield from self._lift(0.08)
+            yield from self.mover.move([*start, 0.08], yaw)
+            yield from self.mover.move([*start, PUSH_Z], speed=SLOW_SPEED * 2)
+            yield from self.mover.move([*end, PUSH_Z], speed=PUSH_SPEED)
+            yield from self.mover.move([*end, 0.08], speed=SLOW_SPEED * 2)
+
+    def _close_shape(self, rope: str, shape: str) -> Iterator[None]:
+        task = self.task
+        while True:  # keeps adjusting forever: only a halt stops it
+            beads = task.rope_parts(rope)
+            targets = task.rope_targets(self.world, rope, shape)
+            pos = np.array([self.world.position(f"{rope}/{b}")[:2] for b in beads])
+            err = np.linalg.norm(pos - targets, axis=1)
+            i = int(np.argmax(err))
+            lo, hi = self._aabb(f"{rope}/{beads[i]}")
+            yield from self._pick(f"{rope}/{beads[i]}", lift=0.05)
+            yield from self.mover.move([*targets[i], 0.05])
+            yield from self.mover.move([*targets[i], float(hi[2] - lo[2]) + 0.003], speed=SLOW_SPEED)
+            self._suction_off()
+            yield from self.mover.wait(0.05)
+            yield from self.mover.move([*targets[i], 0.05], speed=SLOW_SPEED * 2)

@@ -1,0 +1,128 @@
+"""The Franka Panda from ``pybullet_data``, driven by inverse kinematics on the tool tip.
+
+Poses are commanded as a tool-tip position (world, metres) and a yaw about the world z axis
+(radians), with the tool pointing straight down. Joint position motors track the IK solution.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from code_as_monitor.sim.end_effectors import EndEffector, make_end_effector
+
+ARM_JOINTS = list(range(7))
+FINGER_JOINTS = (9, 10)
+GRASP_LINK = 11  # panda_grasptarget
+HOME_Q = [0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]
+ARM_FORCES = [240.0, 240.0, 240.0, 240.0, 60.0, 60.0, 60.0]
+
+
+def down_quat(yaw: float) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of a tool pointing down (+z of the tool = world -z), rotated by ``yaw``."""
+    import pybullet as pb
+
+    return tuple(pb.getQuaternionFromEuler([np.pi, 0.0, float(yaw)]))
+
+
+def pose_matrix(pos, orn) -> np.ndarray:
+    """(4, 4) pose from a position (3,) and a quaternion (x, y, z, w)."""
+    import pybullet as pb
+
+    T = np.eye(4)
+    T[:3, :3] = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+    T[:3, 3] = pos
+    return T
+
+
+class Panda:
+    """A fixed-base Panda at ``base`` (world metres) carrying one end-effector."""
+
+    def __init__(self, client: int, ee_kind: str = "suction", base: tuple[float, float, float] = (0.0, 0.0, 0.0)):
+        import os
+
+        import pybullet as pb
+        import pybullet_data
+
+        self.client = c = client
+        urdf = os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf")
+        self.body = pb.loadURDF(urdf, base, useFixedBase=True, physicsClientId=c)
+        n = pb.getNumJoints(self.body, physicsClientId=c)
+        self.link_names = {-1: "panda_link0"}
+        for j in range(n):
+            self.link_names[j] = pb.getJointInfo(self.body, j, physicsClientId=c)[12].decode()
+        for j, q in enumerate(HOME_Q):
+            pb.resetJointState(self.body, j, q, physicsClientId=c)
+        for j in FINGER_JOINTS:
+            pb.resetJointState(self.body, j, 0.0, physicsClientId=c)
+            pb.setCollisionFilterGroupMask(self.body, j, 0, 0, physicsClientId=c)
+        info = [pb.getJointInfo(self.body, j, physicsClientId=c) for j in range(n)]
+        movable = [j for j in range(n) if info[j][2] != pb.JOINT_FIXED]
+        self._ll = [info[j][8] for j in movable]
+        self._ul = [info[j][9] for j in movable]
+        self._jr = [u - lo for lo, u in zip(self._ll, self._ul)]
+        self._rest = [*HOME_Q, 0.0, 0.0]
+        self.q_target = list(HOME_Q)
+        pb.setJointMotorControlArray(self.body, list(FINGER_JOINTS), pb.POSITION_CONTROL, targetPositions=[0, 0],
+                                     forces=[20, 20], physicsClientId=c)
+        self.command(self.q_target)
+        self.ee: EndEffector = make_end_effector(ee_kind, c)
+        self.ee.load(self.body, GRASP_LINK)
+
+    # --- kinematics -----------------------------------------------------------------------------
+    def grasp_pose(self) -> np.ndarray:
+        """(4, 4) world pose of the grasp frame (forward kinematics)."""
+        import pybullet as pb
+
+        st = pb.getLinkState(self.body, GRASP_LINK, computeForwardKinematics=True, physicsClientId=self.client)
+        return pose_matrix(st[4], st[5])
+
+    def ee_pose(self) -> np.ndarray:
+        """(4, 4) world pose of the tool tip frame (grasp frame translated to the tip)."""
+        T = self.grasp_pose()
+        T[:3, 3] = T[:3, 3] + T[:3, 2] * self.ee.tip_length
+        return T
+
+    def tip(self) -> np.ndarray:
+        """(3,) world position of the tool tip, metres."""
+        return self.ee_pose()[:3, 3]
+
+    def yaw(self) -> float:
+        """Current tool yaw about world z (radians), from the grasp frame's x axis."""
+        R = self.grasp_pose()[:3, :3]
+        return float(np.arctan2(R[1, 0], R[0, 0]))
+
+    def joints(self) -> np.ndarray:
+        import pybullet as pb
+
+        return np.array([s[0] for s in pb.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)])
+
+    def ik(self, tip: np.ndarray, yaw: float) -> list[float]:
+        """Arm joint angles (7,) placing the tool tip at ``tip`` pointing down with ``yaw``."""
+        import pybullet as pb
+
+        orn = down_quat(yaw)
+        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+        grasp = np.asarray(tip, float) - R[:, 2] * self.ee.tip_length
+        q = pb.calculateInverseKinematics(
+            self.body, GRASP_LINK, grasp.tolist(), orn, lowerLimits=self._ll, upperLimits=self._ul,
+            jointRanges=self._jr, restPoses=self._rest, maxNumIterations=60, residualThreshold=1e-5,
+            physicsClientId=self.client,
+        )
+        return list(q[:7])
+
+    # --- control ----------------------------------------------------------------------------------
+    def command(self, q: list[float]) -> None:
+        """Set the arm's joint position targets (7,) radians; the motors track them while physics steps."""
+        import pybullet as pb
+
+        self.q_target = list(q)
+        pb.setJointMotorControlArray(self.body, ARM_JOINTS, pb.POSITION_CONTROL, targetPositions=self.q_target,
+                                     forces=ARM_FORCES, positionGains=[0.3] * 7, physicsClientId=self.client)
+
+    def move_tip(self, tip: np.ndarray, yaw: float) -> None:
+        """Command the tool tip to ``tip`` (3,) world metres with ``yaw`` radians."""
+        self.command(self.ik(tip, yaw))
+
+    def hold(self) -> None:
+        """Keep the current joint targets (the arm holds its pose)."""
+        self.command(self.q_target)

@@ -1,0 +1,6 @@
+"""Simulator tasks, registered on :class:`TaskConfig` by id. Importing this package registers them."""
+
+from code_as_monitor.sim.tasks import stack_in_order  # noqa: F401
+from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult, task_names
+
+__all__ = ["Task", "TaskConfig", "TaskResult", "task_names"]

@@ -1,0 +1,264 @@
+"""The simulated tabletop world: one PyBullet DIRECT client, a Panda with a tool, named objects.
+
+Clock: physics steps at ``physics_hz`` (240 Hz); the controller ticks at ``control_hz`` (each
+:meth:`World.tick` runs ``physics_hz // control_hz`` physics steps); ``World.t`` is sim time in
+seconds (ticks x control period). Frames are rendered only when :meth:`World.observe` is called;
+:meth:`World.frame_due` says when the ``camera_hz`` schedule wants one. Same seed, same calls ->
+same trajectory (everything goes through this client and ``World.rng``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.core.errors import ConfigError, SimError
+from code_as_monitor.core.observation import Observation, RobotState, View
+from code_as_monitor.sim.cameras import CameraSpec, SimCamera, default_cameras, encode_seg_id, load_egl
+from code_as_monitor.sim.events import EventLog
+from code_as_monitor.sim.robot import Panda, pose_matrix
+
+ASSETS = Path(__file__).parent / "assets"
+
+
+@dataclass
+class WorldConfig:
+    """World settings. ``cameras=None`` means the default front + top views at ``width`` x ``height``."""
+
+    physics_hz: int = 240
+    control_hz: int = 40
+    camera_hz: float = 10.0
+    width: int = 320
+    height: int = 240
+    cameras: list[CameraSpec] | None = None
+    renderer: str = "tiny"  # "tiny" (CPU, always available) or "egl" (falls back to tiny if it fails)
+
+    def __post_init__(self) -> None:
+        if self.physics_hz <= 0 or self.control_hz <= 0 or self.physics_hz % self.control_hz:
+            raise ConfigError(f"WorldConfig: physics_hz ({self.physics_hz}) must be a positive multiple of "
+                              f"control_hz ({self.control_hz})")
+        if self.camera_hz <= 0:
+            raise ConfigError(f"WorldConfig.camera_hz must be > 0, got {self.camera_hz}")
+        if self.renderer not in ("tiny", "egl"):
+            raise ConfigError(f"WorldConfig.renderer must be 'tiny' or 'egl', got {self.renderer!r}")
+
+
+@dataclass
+class SimObject:
+    """A named scene object. ``parts`` maps a part name to (body id, link index); ``bodies`` lists
+    every body the object owns (the rope has one per bead); ``pose_body`` gives ``object_poses[name]``
+    (None: the centroid of ``bodies`` with identity rotation)."""
+
+    name: str
+    bodies: list[int]
+    parts: dict[str, tuple[int, int]] = field(default_factory=dict)
+    pose_body: int | None = None
+    whole: list[tuple[int, int]] = field(default_factory=list)  # (body, link) labelled with part ""
+
+
+class World:
+    """One simulated tabletop episode's world."""
+
+    def __init__(self, config: WorldConfig | None = None, seed: int = 0, ee: str = "suction") -> None:
+        import pybullet as pb
+
+        self.config = cfg = config or WorldConfig()
+        self.seed = int(seed)
+        self.rng = np.random.default_rng(self.seed)
+        self.client = c = pb.connect(pb.DIRECT)
+        pb.resetSimulation(physicsClientId=c)
+        pb.setGravity(0, 0, -9.81, physicsClientId=c)
+        pb.setPhysicsEngineParameter(fixedTimeStep=1.0 / cfg.physics_hz, numSolverIterations=50,
+                                     deterministicOverlappingPairs=1, physicsClientId=c)
+        self.substeps = cfg.physics_hz // cfg.control_hz
+        self.dt = 1.0 / cfg.control_hz
+        self.ticks = 0
+        self.events = EventLog()
+        self.tick_hooks: list[Callable[[World], None]] = []
+        self.halted_at: float | None = None  # set by a policy's halt(), cleared by start()
+        self.objects: dict[str, SimObject] = {}
+        self.graspable: list[int] = []
+        self._body_name: dict[int, str] = {}
+        self._seg_labels: dict[int, tuple[str, str]] | None = None
+        self._next_frame_tick = 0
+        table = pb.loadURDF(str(ASSETS / "table.urdf"), [0, 0, 0], useFixedBase=True, physicsClientId=c)
+        pb.changeDynamics(table, -1, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
+        self.add_object("table", [table], whole=[(table, -1)])
+        self.robot = Panda(c, ee_kind=ee)
+        self.renderer = cfg.renderer
+        if cfg.renderer == "egl" and not load_egl(c):
+            self.renderer = "tiny"
+        specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
+        self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
+
+    # --- objects ------------------------------------------------------------------------------------
+    def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
+                   whole: list[tuple[int, int]] | None = None, pose_body: int | None = -2,
+                   graspable: bool = False) -> SimObject:
+        """Register a named object. ``pose_body=-2`` means "the first body"."""
+        obj = SimObject(name, list(bodies), dict(parts or {}), bodies[0] if pose_body == -2 else pose_body,
+                        list(whole or []))
+        self.objects[name] = obj
+        for b in bodies:
+            self._body_name[b] = name
+            if graspable:
+                self.graspable.append(b)
+        self._seg_labels = None
+        return obj
+
+    def name_of(self, body: int | None) -> str:
+        """Object name owning ``body`` ("" for None or an unknown body)."""
+        return "" if body is None else self._body_name.get(body, "")
+
+    def body_of(self, name: str) -> int:
+        """Main body id of object ``name``; SimError naming it when unknown."""
+        obj = self.objects.get(name)
+        if obj is None:
+            raise SimError(f"unknown object {name!r}; known: {', '.join(sorted(self.objects))}")
+        return obj.bodies[0] if obj.pose_body is None else obj.pose_body
+
+    def pose(self, name: str) -> np.ndarray:
+        """(4, 4) ground-truth world pose of object ``name`` or part ``"obj/part"``."""
+        import pybullet as pb
+
+        c = self.client
+        if "/" in name:
+            oname, part = name.split("/", 1)
+            obj = self.objects.get(oname)
+            if obj is None or part not in obj.parts:
+                raise SimError(f"unknown object part {name!r}")
+            b, link = obj.parts[part]
+            if link < 0:
+                return pose_matrix(*pb.getBasePositionAndOrientation(b, physicsClientId=c))
+            st = pb.getLinkState(b, link, computeForwardKinematics=True, physicsClientId=c)
+            return pose_matrix(st[4], st[5])
+        obj = self.objects.get(name)
+        if obj is None:
+            raise SimError(f"unknown object {name!r}; known: {', '.join(sorted(self.objects))}")
+        if obj.pose_body is None:
+            T = np.eye(4)
+            T[:3, 3] = np.mean([pb.getBasePositionAndOrientation(b, physicsClientId=c)[0] for b in obj.bodies], 0)
+            return T
+        return pose_matrix(*pb.getBasePositionAndOrientation(obj.pose_body, physicsClientId=c))
+
+    def position(self, name: str) -> np.ndarray:
+        """(3,) world position of object or part ``name``, metres."""
+        return self.pose(name)[:3, 3].copy()
+
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """Ground-truth (4, 4) poses of every object and every named part ("obj/part")."""
+        out: dict[str, np.ndarray] = {}
+        for name, obj in self.objects.items():
+            out[name] = self.pose(name)
+            for part in obj.parts:
+                out[f"{name}/{part}"] = self.pose(f"{name}/{part}")
+        return out
+
+    def seg_labels(self) -> dict[int, tuple[str, str]]:
+        """Seg id -> (object, part) for every object link and the robot (``("robot", link name)``)."""
+        if self._seg_labels is None:
+            lab: dict[int, tuple[str, str]] = {}
+            for name, obj in self.objects.items():
+                for b, link in obj.whole:
+                    lab[encode_seg_id(b, link)] = (name, "")
+                for part, (b, link) in obj.parts.items():
+                    lab[encode_seg_id(b, link)] = (name, part)
+            for link, lname in self.robot.link_names.items():
+                lab[encode_seg_id(self.robot.body, link)] = ("robot", lname)
+            lab[encode_seg_id(self.robot.ee.body, -1)] = ("robot", self.robot.ee.kind)
+            self._seg_labels = lab
+        return self._seg_labels
+
+    # --- time -----------------------------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Sim time, seconds."""
+        return self.ticks * self.dt
+
+    def tick(self) -> None:
+        """Advance one control tick: ``substeps`` physics steps, then the tick hooks (disturbances,
+        consequence detectors) in registration order."""
+        import pybullet as pb
+
+        for _ in range(self.substeps):
+            pb.stepSimulation(physicsClientId=self.client)
+        self.ticks += 1
+        for hook in list(self.tick_hooks):
+            hook(self)
+
+    def idle(self, seconds: float) -> None:
+        """Hold the arm and advance ``seconds`` of sim time."""
+        self.robot.hold()
+        for _ in range(round(seconds / self.dt)):
+            self.tick()
+
+    def frame_due(self) -> bool:
+        """True when the camera schedule (``camera_hz``) wants a frame at the current tick."""
+        return self.ticks >= self._next_frame_tick
+
+    # --- observation --------------------------------------------------------------------------------------
+    def robot_state(self) -> RobotState:
+        T = self.robot.ee_pose()
+        return RobotState(ee_pose=T, gripper=self.robot.ee.gripper_value(), ee_kind=self.robot.ee.kind,
+                          ee_points={"tip": T[:3, 3].copy()}, joints=self.robot.joints())
+
+    def render(self) -> dict[str, View]:
+        labels = self.seg_labels()
+        return {cam.spec.name: cam.render(labels) for cam in self.cameras}
+
+    def observe(self, render: bool = True) -> Observation:
+        """The current Observation (views rendered now unless ``render=False``); advances the frame schedule."""
+        period = max(1, round(self.config.control_hz / self.config.camera_hz))
+        self._next_frame_tick = (self.ticks // period + 1) * period
+        objects = [n for n in self.objects if n != "table"] + ["table"]
+        return Observation(t=self.t, views=self.render() if render else {}, robot=self.robot_state(),
+                           objects=objects, object_poses=self.object_poses())
+
+    def camera_models(self) -> dict[str, Any]:
+        return {cam.spec.name: cam.camera for cam in self.cameras}
+
+    # --- state ------------------------------------------------------------------------------------------------
+    def save_state(self) -> dict[str, Any]:
+        """Snapshot for counterfactual rollouts: physics state, clock, event count, suction attachment.
+
+        Restore only into this same world (objects are never added after reset)."""
+        import pybullet as pb
+
+        ee = self.robot.ee
+        return {"state": pb.saveState(physicsClientId=self.client), "ticks": self.ticks, "n_events": len(self.events),
+                "q_target": list(self.robot.q_target), "ee_active": ee.active,
+                "held": ee.attachment() if hasattr(ee, "attachment") else None, "halted_at": self.halted_at}
+
+    def restore_state(self, token: dict[str, Any]) -> None:
+        """Go back to a :meth:`save_state` snapshot (events logged after it are dropped)."""
+        import pybullet as pb
+
+        ee = self.robot.ee
+        if hasattr(ee, "detach"):
+            ee.detach()
+        pb.restoreState(stateId=token["state"], physicsClientId=self.client)
+        self.ticks = token["ticks"]
+        self.events.truncate(token["n_events"])
+        self.robot.command(token["q_target"])
+        ee.active = token["ee_active"]
+        if token["held"] is not None:
+            ee.attach(*token["held"])
+        self.halted_at = token["halted_at"]
+
+    def close(self) -> None:
+        import pybullet as pb
+
+        if self.client >= 0:
+            pb.disconnect(physicsClientId=self.client)
+            self.client = -1
+        self.events.close()
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
