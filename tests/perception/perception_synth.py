@@ -83,11 +83,15 @@ def _tex(seed: int) -> np.ndarray:
 
 
 def _sample(seed: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Bilinear sample of the periodic texture at surface coordinates (a, b), metres."""
     t = _tex(seed)
     n = t.shape[0]
-    i = np.floor(a * TEXELS_PER_M).astype(np.int64) % n
-    j = np.floor(b * TEXELS_PER_M).astype(np.int64) % n
-    return t[j, i]
+    x, y = a * TEXELS_PER_M, b * TEXELS_PER_M
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = x - x0, y - y0
+    i0, j0 = x0.astype(np.int64) % n, y0.astype(np.int64) % n
+    i1, j1 = (i0 + 1) % n, (j0 + 1) % n
+    return (t[j0, i0] * (1 - fx) + t[j0, i1] * fx) * (1 - fy) + (t[j1, i0] * (1 - fx) + t[j1, i1] * fx) * fy
 
 
 def camera(
@@ -173,8 +177,12 @@ def observe(scene: Scene, cams: list[CameraModel], t: float, tip=None, with_pose
     )
 
 
-def two_cameras(width: int = 320, height: int = 240) -> list[CameraModel]:
+def two_cameras(width: int = 320, height: int = 240, distance: float = 0.7) -> list[CameraModel]:
+    """Two cameras ~``distance`` m from the origin, 45 and 50 degrees down, about 90 degrees apart;
+    the field of view shrinks with distance so a 6 cm block stays ~40 px wide at 320 x 240."""
+    fov = float(np.degrees(2 * np.arctan(0.18 / distance)))
+    s = distance / np.sqrt(2.0)
     return [
-        camera("front", (0.26, -0.04, 0.24), width=width, height=height),
-        camera("side", (0.02, 0.27, 0.25), width=width, height=height),
+        camera("front", (s, -0.1 * s, s), width=width, height=height, fov=fov),
+        camera("side", (0.05 * s, s * np.cos(0.7), s * np.sin(0.7) * 1.2), width=width, height=height, fov=fov),
     ]

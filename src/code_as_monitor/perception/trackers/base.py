@@ -60,9 +60,17 @@ class LKTrackerConfig(TrackerConfig):
         levels: pyramid levels above the base image (``maxLevel``).
         iterations, epsilon: LK termination criteria.
         fb_threshold_px: forward-backward error above this (pixels) -> lost in that view.
+        rekey_px: points are tracked from a per-view key frame (not frame to frame, so errors do not
+            accumulate); the key frame is renewed when a track moves more than this (pixels) from its
+            key-frame position, or a point is (re)seeded in the view. 0 = frame-to-frame tracking.
         min_eig: LK minimum eigenvalue threshold (``minEigThreshold``).
-        occlusion_tol: metres; a point is visible in a view when the depth image at its projection
-            agrees with the point's depth to within this.
+        occlusion_tol: metres; a point is visible in a view when the depth reading at its projection
+            agrees with the point's depth to within this (see ``inside_tol``).
+        inside_tol: metres; a point may also lie up to this much further behind the observed surface
+            (points inside an object, such as a fitted line's axis).
+        seed_search_px: when the projection itself does not see the point (element corners on an
+            object's boundary), the nearest pixel within this radius whose lifted point is within
+            ``occlusion_tol`` of it is tracked instead (0 disables the search).
         max_depth_jump: metres; a tracked pixel whose depth reading jumps more than this between
             frames slid onto another surface -> lost in that view.
         border_px: a projection or track closer than this to the image border is out of the view.
@@ -76,13 +84,16 @@ class LKTrackerConfig(TrackerConfig):
             (and the wait before retrying after the hook found nothing).
     """
 
-    window: int = 25
+    window: int = 21
     levels: int = 3
     iterations: int = 30
     epsilon: float = 0.01
     fb_threshold_px: float = 1.0
+    rekey_px: float = 20.0
     min_eig: float = 1e-4
     occlusion_tol: float = 0.015
+    inside_tol: float = 0.02
+    seed_search_px: int = 6
     max_depth_jump: float = 0.03
     border_px: int = 4
     max_depth: float = 5.0
@@ -103,8 +114,10 @@ class LKTrackerConfig(TrackerConfig):
         for f in ("iterations", "epsilon", "fb_threshold_px", "occlusion_tol", "max_depth_jump",
                   "max_depth", "rigid_max_residual", "reacquire_after"):
             check_positive("lk", f, getattr(self, f))
-        check_positive("lk", "border_px", self.border_px, allow_zero=True)
+        for f in ("border_px", "inside_tol", "seed_search_px"):
+            check_positive("lk", f, getattr(self, f), allow_zero=True)
         check_positive("lk", "min_eig", self.min_eig, allow_zero=True)
+        check_positive("lk", "rekey_px", self.rekey_px, allow_zero=True)
 
 
 @dataclass

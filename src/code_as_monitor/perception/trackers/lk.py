@@ -1,0 +1,351 @@
+"""Multi-view pyramidal Lucas-Kanade element tracker, lifted to 3-D with depth and fused across views.
+
+Per frame and per view (all element points of a view in one call):
+
+1. one forward LK call (previous -> current grayscale) and one backward call (current -> previous)
+   over all the view's points. OpenCV's Python binding cannot take the pyramids of
+   ``cv2.buildOpticalFlowPyramid`` as inputs (opencv/opencv#4777), so each call builds them itself;
+   one call per direction per view keeps that to the minimum the binding allows;
+2. a track is lost in that view when LK fails, the forward-backward error exceeds
+   ``fb_threshold_px``, it comes within ``border_px`` of the border, its pixel has no depth, or the
+   depth reading jumped more than ``max_depth_jump`` since the previous frame (it slid onto another
+   surface, or something passed in front);
+3. surviving pixels are lifted with ``geometry.backproject_pixels`` and shifted by the per-view
+   *anchor offset* (below) to give that view's estimate of the 3-D point.
+
+Fusion: the mean (or median) of the views' estimates. A point no view observed is *stale*: it keeps
+its last position. For line and surface elements with ``rigid`` on, a rigid transform (Kabsch) from
+the element's reference shape (its points at reset / re-acquisition) to the fused estimates of its
+observed points is fitted when at least ``rigid_min_points`` are observed and the RMS residual is at
+most ``rigid_max_residual``; it is applied to all the element's points, which are then all fresh (a
+partially occluded surface keeps its shape). Otherwise observed points take their fused estimates
+and the others stay stale.
+
+Seeding (at reset, and every frame for a fresh point a view is not tracking: re-acquisition from
+another view): the point is projected into the view. It is visible there when the depth reading at
+the projection lies at most ``occlusion_tol`` behind and at most ``occlusion_tol + inside_tol`` in
+front of the point (``inside_tol`` admits points inside an object, such as a fitted line's axis).
+Otherwise the nearest pixel within ``seed_search_px`` whose lifted point is within ``occlusion_tol``
+of the 3-D point is used (element corners lie on object boundaries). The tracked pixel is the
+*anchor*; ``offset = point - lift(anchor)`` is stored (world frame) and added to later lifts.
+
+Re-acquisition of points stale in every view: when an element has had a stale point for more than
+``reacquire_after`` frames, the hook set by :meth:`set_reacquire` (the agent re-runs the painter) is
+called; a returned element replaces the points and is re-seeded, ``None`` waits another period.
+
+Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from code_as_monitor.core.elements import Element, ElementKind
+from code_as_monitor.core.errors import PerceptionError
+from code_as_monitor.core.observation import Observation, View
+from code_as_monitor.perception.trackers.base import (
+    KinematicAnchor,
+    LKTrackerConfig,
+    Tracker,
+    TrackResult,
+    views_containing,
+)
+
+_RIGID_KINDS = (ElementKind.LINE, ElementKind.SURFACE)
+
+
+def kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares rigid transform with ``dst ≈ src @ R.T + t``.
+
+    Args:
+        src, dst: (n, 3) corresponding points, n >= 3.
+    Returns:
+        R (3, 3) proper rotation, t (3,), RMS residual (metres).
+    """
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
+    R = Vt.T @ D @ U.T
+    t = cd - cs @ R.T
+    rms = float(np.sqrt(((src @ R.T + t - dst) ** 2).sum(axis=1).mean()))
+    return R, t, rms
+
+
+class _ViewState:
+    """Per-view tracking state over the M flattened element points."""
+
+    def __init__(self, m: int) -> None:
+        self.gray: np.ndarray | None = None  # (H, W) uint8, current frame
+        self.key: np.ndarray | None = None  # (H, W) uint8, key frame the templates come from
+        self.key_uv = np.zeros((m, 2), dtype=np.float32)  # anchor pixels in the key frame
+        self.rekey = True  # make the current frame the key frame at the end of this step
+        self.uv = np.zeros((m, 2), dtype=np.float32)  # anchor pixels, current frame
+        self.active = np.zeros(m, dtype=bool)  # tracked in this view
+        self.offset = np.zeros((m, 3))  # world-frame offset point - lift(anchor)
+        self.z = np.zeros(m)  # depth reading at the anchor last frame, metres
+
+
+class LKTracker(Tracker):
+    """Streaming multi-view LK tracker (see the module docstring)."""
+
+    def __init__(self, config: LKTrackerConfig | None = None) -> None:
+        super().__init__()
+        from code_as_monitor.geometry import backproject_pixels
+
+        self._lift = backproject_pixels
+        self.config = config or LKTrackerConfig()
+        c = self.config
+        self._win = (c.window, c.window)
+        self._criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, c.iterations, c.epsilon)
+        self._elements: dict[int, Element] = {}
+        self._anchors: dict[int, KinematicAnchor] = {}
+        self._views: dict[str, _ViewState] = {}
+        self._slices: dict[int, slice] = {}
+        self.P = np.zeros((0, 3))  # (M, 3) current points, world metres
+        self.ref = np.zeros((0, 3))  # (M, 3) reference shape for the rigid fit
+        self.stale = np.zeros(0, dtype=bool)
+        self._stale_frames: dict[int, int] = {}
+        r = c.seed_search_px
+        offs = np.arange(-r, r + 1, max(1, r // 3)) if r > 0 else np.zeros(1)
+        du, dv = np.meshgrid(offs, offs)
+        order = np.argsort(du.ravel() ** 2 + dv.ravel() ** 2, kind="stable")
+        self._search = np.stack([du.ravel()[order], dv.ravel()[order]], axis=1).astype(np.float64)
+
+    # --- public API -------------------------------------------------------------------------------
+    def reset(self, obs: Observation, elements: list[Element]) -> None:
+        self._anchors.clear()
+        self._views.clear()
+        tracked = []
+        for el in elements:
+            if el.owner[0] in self.config.kinematic_owners:
+                self._anchors[el.id] = KinematicAnchor(obs, el)
+            else:
+                tracked.append(el)
+        self._order = [el.id for el in elements]
+        self._elements = {el.id: el for el in elements}
+        self._layout(tracked)
+        for name, view in obs.views.items():
+            st = self._views[name] = _ViewState(len(self.P))
+            st.gray = self._gray(view)
+            self._seed(view, st, np.ones(len(self.P), dtype=bool))
+            self._rekey(st)
+
+    def step(self, obs: Observation) -> TrackResult:
+        c = self.config
+        m = len(self.P)
+        for name in [n for n in self._views if n not in obs.views]:
+            del self._views[name]  # a view that dropped out is re-seeded when it returns
+        est = np.full((len(obs.views), m, 3), np.nan)
+        for k, (name, view) in enumerate(obs.views.items()):
+            gray = self._gray(view)
+            st = self._views.get(name)
+            if st is None:
+                st = self._views[name] = _ViewState(m)
+            st.gray = gray
+            if st.active.any() and st.key is not None:
+                self._track(view, st, est[k])
+        observed = np.isfinite(est[:, :, 0])  # (V, M)
+        ok = observed.any(axis=0)
+        if c.fusion == "median":
+            fused = np.full((m, 3), np.nan)
+            fused[ok] = np.nanmedian(est[:, ok], axis=0)
+        else:
+            fused = _nanmean(est, observed)
+        self._update_points(fused, ok)
+        visible = {eid: int(observed[:, sl].any(axis=1).sum()) for eid, sl in self._slices.items()}
+        fresh = ~self.stale
+        for name, view in obs.views.items():
+            st = self._views[name]
+            self._seed(view, st, fresh & ~st.active)
+            if st.rekey:
+                self._rekey(st)
+        self._maybe_reacquire(obs)
+        return self._result(obs, visible)
+
+    # --- internals --------------------------------------------------------------------------------
+    def _layout(self, tracked: list[Element]) -> None:
+        self._slices, start = {}, 0
+        for el in tracked:
+            self._slices[el.id] = slice(start, start + len(el.points))
+            start += len(el.points)
+        pts = [el.points for el in tracked]
+        self.P = np.concatenate(pts).astype(np.float64) if pts else np.zeros((0, 3))
+        self.ref = self.P.copy()
+        self.stale = np.zeros(len(self.P), dtype=bool)
+        self._stale_frames = {el.id: 0 for el in tracked}
+
+    @staticmethod
+    def _gray(view: View) -> np.ndarray:
+        return cv2.cvtColor(view.rgb, cv2.COLOR_RGB2GRAY)
+
+    def _cam_z(self, view: View, pts: np.ndarray) -> np.ndarray:
+        T = view.camera.T_world_cam
+        return (pts - T[:3, 3]) @ T[:3, 2]
+
+    def _inside(self, view: View, uv: np.ndarray) -> np.ndarray:
+        b = self.config.border_px
+        cam = view.camera
+        return (
+            np.isfinite(uv).all(axis=1)
+            & (uv[:, 0] >= b) & (uv[:, 0] <= cam.width - 1 - b)
+            & (uv[:, 1] >= b) & (uv[:, 1] <= cam.height - 1 - b)
+        )
+
+    @staticmethod
+    def _rekey(st: _ViewState) -> None:
+        st.key = st.gray
+        st.key_uv[:] = st.uv
+        st.rekey = False
+
+    def _track(self, view: View, st: _ViewState, est: np.ndarray) -> None:
+        """LK key frame -> current and back for the view's active points; writes estimates (M, 3) into ``est``."""
+        c = self.config
+        idx = np.flatnonzero(st.active)
+        p0 = st.key_uv[idx].reshape(-1, 1, 2)
+        kw = {
+            "winSize": self._win, "maxLevel": c.levels, "criteria": self._criteria,
+            "minEigThreshold": c.min_eig, "flags": cv2.OPTFLOW_USE_INITIAL_FLOW,
+        }
+        p1, s1, _ = cv2.calcOpticalFlowPyrLK(st.key, st.gray, p0, st.uv[idx].reshape(-1, 1, 2).copy(), **kw)
+        p0b, s2, _ = cv2.calcOpticalFlowPyrLK(st.gray, st.key, p1, p0.copy(), **kw)
+        p1 = p1.reshape(-1, 2)
+        fb = np.linalg.norm(p0b.reshape(-1, 2) - p0.reshape(-1, 2), axis=1)
+        good = (s1.ravel() == 1) & (s2.ravel() == 1) & (fb <= c.fb_threshold_px) & self._inside(view, p1)
+        lifted, valid = self._lift(p1, view.depth, view.camera, c.max_depth)
+        good &= valid
+        z = np.where(valid, self._cam_z(view, np.nan_to_num(lifted)), np.nan)
+        with np.errstate(invalid="ignore"):
+            good &= np.abs(z - st.z[idx]) <= c.max_depth_jump
+        gi = idx[good]
+        est[gi] = lifted[good] + st.offset[gi]
+        st.uv[gi] = p1[good]
+        st.z[gi] = z[good]
+        st.active[idx[~good]] = False
+        if gi.size and np.abs(st.uv[gi] - st.key_uv[gi]).max() > c.rekey_px:
+            st.rekey = True
+
+    def _seed(self, view: View, st: _ViewState, want: np.ndarray) -> None:
+        """Start tracking the points ``want`` (M,) bool in ``view`` where they are visible."""
+        idx = np.flatnonzero(want)
+        if idx.size == 0:
+            return
+        c = self.config
+        P = self.P[idx]
+        uv0, zp = view.camera.project(P)
+        n, s = len(idx), len(self._search)
+        cand = (uv0[:, None, :] + self._search[None]).reshape(-1, 2)  # (n*s, 2), search[0] = (0, 0)
+        lifted, valid = self._lift(cand, view.depth, view.camera, c.max_depth)
+        valid &= self._inside(view, cand) & np.repeat(zp > 0, s)
+        lifted = lifted.reshape(n, s, 3)
+        valid = valid.reshape(n, s)
+        zr = self._cam_z(view, np.nan_to_num(lifted[:, 0]))
+        d = zp - zr  # > 0: the surface reading is in front of the point
+        exact = valid[:, 0] & (d >= -c.occlusion_tol) & (d <= c.occlusion_tol + c.inside_tol)
+        dist = np.where(valid, np.linalg.norm(lifted - P[:, None], axis=2), np.inf)
+        best = np.argmin(dist, axis=1)
+        near = dist[np.arange(n), best] <= c.occlusion_tol
+        pick = np.where(exact, 0, best)
+        ok = exact | near
+        sel = idx[ok]
+        rows = np.flatnonzero(ok)
+        anchor_lift = lifted[rows, pick[rows]]
+        st.uv[sel] = cand.reshape(n, s, 2)[rows, pick[rows]]
+        st.offset[sel] = P[rows] - anchor_lift
+        st.z[sel] = self._cam_z(view, anchor_lift)
+        st.active[sel] = True
+        st.rekey |= bool(sel.size)
+
+    def _update_points(self, fused: np.ndarray, ok: np.ndarray) -> None:
+        c = self.config
+        for eid, sl in self._slices.items():
+            o = ok[sl]
+            kind = self._elements[eid].kind
+            if c.rigid and kind in _RIGID_KINDS and o.sum() >= c.rigid_min_points:
+                R, t, rms = kabsch(self.ref[sl][o], fused[sl][o])
+                if rms <= c.rigid_max_residual:
+                    self.P[sl] = self.ref[sl] @ R.T + t
+                    self.stale[sl] = False
+                    continue
+            self.P[sl][o] = fused[sl][o]
+            self.stale[sl] = ~o
+
+    def _maybe_reacquire(self, obs: Observation) -> None:
+        c = self.config
+        for eid, sl in self._slices.items():
+            if not self.stale[sl].any():
+                self._stale_frames[eid] = 0
+                continue
+            self._stale_frames[eid] += 1
+            if self._reacquire is None or self._stale_frames[eid] <= c.reacquire_after:
+                continue
+            self._stale_frames[eid] = 0  # retry only after another period
+            old = self._elements[eid]
+            cur = Element(old.id, old.name, old.kind, self.P[sl].copy(), old.owner, old.color)
+            new = self._reacquire(obs, cur)
+            if new is None:
+                continue
+            if new.id != eid:
+                raise PerceptionError(f"reacquire hook returned element {new.id} for element {eid}")
+            self._replace(obs, new)
+
+    def _replace(self, obs: Observation, new: Element) -> None:
+        """Swap in a re-detected element (any point count) and seed it in every view."""
+        sl = self._slices[new.id]
+        if len(new.points) != sl.stop - sl.start:  # re-layout, keeping every other point's state
+            old_slices, old_views = self._slices, self._views
+            old_P, old_stale = self.P, self.stale
+            self._elements[new.id] = new
+            tracked = [self._elements[i] for i in old_slices]
+            frames = dict(self._stale_frames)
+            self._layout(tracked)
+            self._stale_frames = frames
+            self._views = {}
+            for name, ost in old_views.items():
+                st = self._views[name] = _ViewState(len(self.P))
+                st.gray, st.key, st.key_uv[:] = ost.gray, ost.key, 0.0
+                for eid, osl in old_slices.items():
+                    if eid != new.id:
+                        nsl = self._slices[eid]
+                        st.uv[nsl], st.active[nsl], st.key_uv[nsl] = ost.uv[osl], ost.active[osl], ost.key_uv[osl]
+                        st.offset[nsl], st.z[nsl] = ost.offset[osl], ost.z[osl]
+            for eid, osl in old_slices.items():
+                if eid != new.id:
+                    self.P[self._slices[eid]] = old_P[osl]
+                    self.stale[self._slices[eid]] = old_stale[osl]
+            sl = self._slices[new.id]
+        self._elements[new.id] = new
+        self.P[sl] = new.points
+        self.ref[sl] = new.points
+        self.stale[sl] = False
+        self._stale_frames[new.id] = 0
+        want = np.zeros(len(self.P), dtype=bool)
+        want[sl] = True
+        for name, view in obs.views.items():
+            st = self._views[name]
+            st.active[sl] = False
+            self._seed(view, st, want)
+
+    def _result(self, obs: Observation, visible_tracked: dict[int, int]) -> TrackResult:
+        points: dict[int, np.ndarray] = {}
+        stale: dict[int, np.ndarray] = {}
+        visible: dict[int, int] = {}
+        for eid in self._order:
+            if eid in self._anchors:
+                points[eid] = self._anchors[eid].points(obs)
+                stale[eid] = np.zeros(len(points[eid]), dtype=bool)
+                visible[eid] = views_containing(obs, points[eid])
+            else:
+                sl = self._slices[eid]
+                points[eid] = self.P[sl].copy()
+                stale[eid] = self.stale[sl].copy()
+                visible[eid] = visible_tracked.get(eid, 0)
+        return TrackResult(obs.t, points, stale, visible)
+
+
+def _nanmean(est: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """Mean over views (axis 0) of (V, M, 3) estimates ignoring NaN; NaN where no view observed."""
+    n = observed.sum(axis=0)
+    s = np.where(observed[:, :, None], est, 0.0).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return s / n[:, None]

@@ -1,0 +1,139 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from perception_synth import Box, Scene, camera, observe, two_cameras
+
+from code_as_monitor.core.elements import Element
+from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.perception.trackers.base import LKTrackerConfig, TrackerConfig, make_tracker
+
+TOP = np.array([[-0.015, -0.015, 0.06], [0.015, -0.015, 0.06], [0.015, 0.015, 0.06], [-0.015, 0.015, 0.06]])
+
+
+def _block(center=(0.0, 0.0, 0.03)) -> Box:
+    return Box("red_block", np.array(center, float), np.array([0.06, 0.06, 0.06]))
+
+
+def _elements() -> list[Element]:
+    return [
+        Element.surface(0, "red top", TOP, owner=("red_block", "top")),
+        Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]), owner=("red_block", "")),
+        Element.point(2, "tip", np.array([0.0, 0.0, 0.3]), owner=("robot", "tip")),
+    ]
+
+
+@pytest.mark.parametrize("rigid", [True, False])
+def test_lk_follows_textured_block_in_3d(rigid):
+    cams = two_cameras()
+    box = _block()
+    scene = Scene([box])
+    els = _elements()
+    tr = make_tracker(TrackerConfig.from_name("lk", rigid=rigid))
+    tr.reset(observe(scene, cams, 0.0, tip=np.array([0.0, 0.0, 0.3])), els)
+    v = np.array([0.005, 0.002, 0.0])  # 5.4 mm per frame
+    for f in range(1, 21):
+        box.center = box.center + v
+        tip = np.array([0.0, 0.01 * f, 0.3])
+        res = tr.step(observe(scene, cams, 0.1 * f, tip=tip))
+        for e in els[:2]:
+            err = np.linalg.norm(res.points[e.id] - (e.points + f * v), axis=1).max()
+            assert err < 0.01, (f, e.name, err)
+            assert not res.stale[e.id].any() and res.visible_views[e.id] == 2
+        np.testing.assert_allclose(res.points[2], tip[None])  # forward kinematics, not images
+    assert res.t == pytest.approx(2.0)
+
+
+def _fov(cam) -> float:
+    return float(np.degrees(2 * np.arctan(0.5 * cam.height / cam.K[1, 1])))
+
+
+def _front_axis(cam) -> np.ndarray:
+    d = cam.T_world_cam[:3, 0].copy()  # camera x axis (image right) in the world
+    d[2] = 0.0
+    return d / np.linalg.norm(d)
+
+
+def test_lk_point_leaving_one_view_is_reacquired_from_the_other():
+    front, side = two_cameras()
+    d = -_front_axis(front)  # image left in the front view
+    # Turn the front camera so that the block's top centre sits ~30 px from its left border.
+    centre = np.array([0.0, 0.0, 0.06])
+    for a in np.linspace(0.0, 0.3, 301):
+        cam = camera("front", front.position, np.array([0.0, 0.0, 0.02]) - a * d, fov=_fov(front))
+        if cam.project(centre)[0][0, 0] < 30:
+            break
+    cams = [cam, side]
+    box = _block()
+    scene = Scene([box])
+    els = _elements()[:2]
+    tr = make_tracker(TrackerConfig.from_name("lk"))
+    tr.reset(observe(scene, cams, 0.0), els)
+    step = 0.006 * d  # leaves the front image within a few frames, then comes back
+    path = [step] * 8 + [-step] * 8
+    seen = []
+    pos = np.zeros(3)
+    for f, dp in enumerate(path, start=1):
+        pos = pos + dp
+        box.center = np.array([0.0, 0.0, 0.03]) + pos
+        res = tr.step(observe(scene, cams, 0.1 * f))
+        seen.append(res.visible_views[1])
+        assert not res.stale[1].any(), f  # the side view keeps it
+        assert np.linalg.norm(res.points[1] - (els[1].points + pos)) < 0.01
+    assert min(seen) == 1, seen  # it left the front image ...
+    assert seen[-1] == 2, seen  # ... and was re-seeded there from the side view
+
+
+def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
+    cams = two_cameras()
+    box = _block()
+    board = Box("board", np.array([0.0, 0.0, 0.2]), np.array([0.4, 0.4, 0.01]), color=(90, 90, 200), texture_seed=5)
+    scene = Scene([box])
+    els = _elements()[:2]
+    calls: list[tuple[float, int]] = []
+    answer: dict[str, Element | None] = {"el": None}
+
+    def reacquire(obs, el):
+        calls.append((obs.t, el.id))
+        return answer["el"] if answer["el"] is not None and answer["el"].id == el.id else None
+
+    tr = make_tracker(TrackerConfig.from_name("lk", reacquire_after=3))
+    tr.set_reacquire(reacquire)
+    tr.reset(observe(scene, cams, 0.0), els)
+    v = np.array([0.004, 0.0, 0.0])
+    res = None
+    for f in range(1, 4):
+        box.center = box.center + v
+        res = tr.step(observe(scene, cams, 0.1 * f))
+        assert not res.stale[1].any()
+    last = {i: p.copy() for i, p in res.points.items()}
+    scene.boxes.append(board)  # covers the block in both views
+    for f in range(4, 9):
+        box.center = box.center + v  # still moving, unseen
+        res = tr.step(observe(scene, cams, 0.1 * f))
+        for i in (0, 1):
+            assert res.stale[i].all()
+            np.testing.assert_array_equal(res.points[i], last[i])  # never replaced by garbage
+            assert res.visible_views[i] == 0
+    assert calls and {i for _, i in calls} == {0, 1}  # hook ran after reacquire_after stale frames
+    # The board goes away; the painter (hook) finds the block again where it now is.
+    scene.boxes.remove(board)
+    moved = box.center - np.array([0.0, 0.0, 0.03])
+    answer["el"] = Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]) + moved, owner=("red_block", ""))
+    n_before = len(calls)
+    for f in range(9, 14):
+        res = tr.step(observe(scene, cams, 0.1 * f))
+    assert len(calls) > n_before
+    assert not res.stale[1].any()
+    np.testing.assert_allclose(res.points[1], answer["el"].points, atol=0.005)
+    assert res.stale[0].all()  # the hook found nothing for it: still stale, still at its last value
+    np.testing.assert_array_equal(res.points[0], last[0])
+
+
+def test_lk_config_validation():
+    with pytest.raises(ConfigError, match="window"):
+        LKTrackerConfig(window=20)
+    with pytest.raises(ConfigError, match="fusion"):
+        LKTrackerConfig(fusion="max")
+    with pytest.raises(ConfigError, match="unknown option"):
+        TrackerConfig.from_name("lk", windw=21)
