@@ -135,6 +135,7 @@ _ALLOWED_NODES: tuple[type, ...] = (
     ast.arguments, ast.arg, ast.keyword, ast.comprehension,
     ast.boolop, ast.operator, ast.unaryop, ast.cmpop, ast.Load, ast.Store,
 )
+_PARTS_OF_REJECTED: tuple[type, ...] = (ast.ExceptHandler, ast.withitem, ast.alias, ast.match_case)
 _NUMBER_RE = re.compile(r"\d+")
 
 
@@ -207,11 +208,13 @@ class _Checker(ast.NodeVisitor):
     def generic_visit(self, node: ast.AST) -> None:
         if type(node) in _REJECTED:
             self.error(node, _REJECTED[type(node)])
-            return
-        if not isinstance(node, _ALLOWED_NODES):
+            if isinstance(node, ast.Import | ast.ImportFrom):
+                return
+        elif isinstance(node, _PARTS_OF_REJECTED):
+            pass  # the statement it belongs to is reported already
+        elif not isinstance(node, _ALLOWED_NODES):
             self.error(node, f"{_describe(node)} is not allowed in a monitor program")
-            return
-        super().generic_visit(node)
+        super().generic_visit(node)  # keep going: the coder gets every problem at once
 
     # --- statements -------------------------------------------------------------------------------
     def visit_FunctionDef(self, node: ast.FunctionDef) -> None:
@@ -360,6 +363,15 @@ def _check_structure(tree: ast.Module, constraints: list[Constraint], errors: li
                           f"(constraint ids: {ids})")
 
 
+def _sorted_unique(errors: list[str]) -> list[str]:
+    """Errors by line number (stable), duplicates dropped."""
+    def line(e: str) -> int:
+        m = re.match(r"line (\d+):", e)
+        return int(m.group(1)) if m else 0
+
+    return sorted(dict.fromkeys(errors), key=line)
+
+
 def validate_program(source: str, constraints: list[Constraint]) -> ast.Module:
     """Parse and check a monitor program against the allow-list.
 
@@ -393,7 +405,7 @@ def validate_program(source: str, constraints: list[Constraint]) -> ast.Module:
     bound, funcs = _bound_names(tree)
     checker = _Checker(bound, funcs)
     checker.visit(tree)
-    errors = checker.errors + errors
+    errors = _sorted_unique(checker.errors) + errors
     if errors:
         shown = errors[:MAX_ERRORS]
         more = f"\n  ... and {len(errors) - MAX_ERRORS} more" if len(errors) > MAX_ERRORS else ""
