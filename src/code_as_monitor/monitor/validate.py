@@ -336,12 +336,12 @@ def _is_docstring(stmt: ast.stmt) -> bool:
 def _check_structure(tree: ast.Module, constraints: list[Constraint], errors: list[str]) -> None:
     """Top level: only defs, constant assignments and a docstring; exactly the expected check functions."""
     defs: dict[str, ast.FunctionDef] = {}
-    for i, stmt in enumerate(tree.body):
+    for stmt in tree.body:
         if isinstance(stmt, ast.FunctionDef):
             if stmt.name in defs:
                 errors.append(f"line {stmt.lineno}: function {stmt.name!r} is defined twice")
             defs[stmt.name] = stmt
-        elif isinstance(stmt, ast.Assign) or (i == 0 and _is_docstring(stmt)):
+        elif isinstance(stmt, ast.Assign) or _is_docstring(stmt):
             continue
         elif type(stmt) not in _REJECTED:  # those get their own message from the checker
             errors.append(f"line {stmt.lineno}: only 'def' statements and constant assignments are allowed "

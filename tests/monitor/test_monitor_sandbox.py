@@ -1,0 +1,135 @@
+"""The sandbox worker: verdicts, history, deadlines, crashes and replacement."""
+
+from __future__ import annotations
+
+import math
+import os
+import pickle
+import signal
+import time
+
+import numpy as np
+import pytest
+from conftest import GOOD
+
+from code_as_monitor.core.constraints import Constraint, Phase
+from code_as_monitor.core.errors import ProgramError, SandboxError
+from code_as_monitor.monitor.sandbox import Sandbox, _loads_reply
+
+HISTORY = '''
+def check_a(E, H, t):
+    T = len(H.t)
+    moved = displacement(H[1])
+    return T == 3 and H[1].shape == (3, 4, 3), f"T={T} moved={moved:.2f} dt={t - H.t[0]:.1f}", moved
+
+
+def check_b(E, H, t):
+    return E[0].shape == (1, 3), "shape"
+'''
+
+LOOP_ON_FAR = '''
+def check_a(E, H, t):
+    if distance(E[0], E[1]) > 1.0:
+        for i in range(10 ** 12):
+            pass
+    return True, "near"
+
+
+def check_b(E, H, t):
+    return True, "fine"
+'''
+
+
+def test_verdicts_in_constraint_order(sandbox, constraints, scene):
+    sandbox.load(GOOD, constraints)
+    assert sandbox.worker_pid not in (None, os.getpid())
+    a, b = sandbox.evaluate(scene, None, None, 2.5)
+    assert (a.constraint_id, a.phase, b.constraint_id, b.phase) == ("a", Phase.DURING, "b", Phase.UPON)
+    assert type(a.ok) is bool and type(b.ok) is bool  # numpy bool_ converted
+    assert a.t == b.t == 2.5 and math.isnan(b.margin)
+    far = {0: scene[0] + [0.0, 0.0, 0.1], 1: scene[1]}
+    a, _ = sandbox.evaluate(far, None, None, 2.6)
+    assert not a.ok and not a.fault and a.margin < 0 and "0.120 m" in a.reason
+
+
+def test_history_and_timestamps(sandbox, constraints, scene):
+    sandbox.load(HISTORY, constraints)
+    H = {i: np.stack([p + np.array([0.1 * k, 0.0, 0.0]) for k in (-2, -1, 0)]) for i, p in scene.items()}
+    a, b = sandbox.evaluate(scene, H, np.array([1.0, 1.5, 2.0]), 2.0)
+    assert a.ok and not a.fault, a.reason
+    assert a.reason == "T=3 moved=0.20 dt=1.0" and a.margin == pytest.approx(0.2)
+    assert b.ok
+    a, _ = sandbox.evaluate(scene, None, None, 2.0)  # no history: T = 1
+    assert not a.ok and a.reason.startswith("T=1")
+    assert scene[0].flags.writeable  # the caller's arrays are untouched
+
+
+def test_deadline_kills_replaces_and_never_blocks(constraints, scene):
+    far = {0: scene[0] + 5.0, 1: scene[1]}
+    with Sandbox(deadline_s=0.03) as sb:
+        sb.load(LOOP_ON_FAR, constraints)
+        assert all(v.ok for v in sb.evaluate(scene, None, None, 0.0))
+        pid = sb.worker_pid
+        t0 = time.perf_counter()
+        verdicts = sb.evaluate(far, None, None, 0.1)
+        assert time.perf_counter() - t0 < 0.03 + 0.02
+        assert all(v.fault and "deadline 30 ms exceeded" in v.reason for v in verdicts)
+        assert sb.worker_pid != pid and sb.n_restarts == 1
+        t0 = time.perf_counter()
+        verdicts = sb.evaluate(scene, None, None, 0.2)  # replacement still starting: answered at once
+        assert time.perf_counter() - t0 < 0.03
+        assert all(v.fault and "restarting" in v.reason for v in verdicts)
+        for _ in range(400):  # the replacement comes up with the same program, in the background
+            verdicts = sb.evaluate(scene, None, None, 0.3)
+            if not verdicts[0].fault:
+                break
+            time.sleep(0.01)
+        assert [v.ok for v in verdicts] == [True, True] and not any(v.fault for v in verdicts)
+
+
+def test_worker_crash_is_a_fault_then_replaced(constraints, scene):
+    with Sandbox(deadline_s=0.2) as sb:
+        sb.load(GOOD, constraints)
+        os.kill(sb.worker_pid, signal.SIGKILL)
+        time.sleep(0.05)
+        verdicts = sb.evaluate(scene, None, None, 0.0)
+        assert all(v.fault and "died" in v.reason for v in verdicts), verdicts
+        sb.start()  # wait for the replacement
+        assert [v.ok for v in sb.evaluate(scene, None, None, 0.0)] == [True, True]
+
+
+def test_load_errors(sandbox, constraints, scene):
+    with pytest.raises(ProgramError, match="ZeroDivisionError"):
+        sandbox.load("X = 1 / 0\n" + GOOD, constraints)
+    with pytest.raises(SandboxError):  # no program after a failed load
+        sandbox.evaluate(scene, None, None, 0.0)
+    sandbox.load(GOOD, constraints)
+    assert [v.ok for v in sandbox.evaluate(scene, None, None, 0.0)] == [True, True]
+
+
+def test_module_level_overrun(constraints, scene):
+    with Sandbox(load_timeout_s=0.2) as sb:
+        with pytest.raises(ProgramError, match="did not finish"):
+            sb.load("X = sum(range(10 ** 11))\n" + GOOD, constraints)
+        sb.load(GOOD, constraints)
+        assert [v.ok for v in sb.evaluate(scene, None, None, 0.0)] == [True, True]
+
+
+def test_evaluate_before_load_and_bad_limits():
+    with pytest.raises(SandboxError):
+        Sandbox(deadline_s=0.0)
+    with Sandbox() as sb, pytest.raises(SandboxError, match="before load"):
+        sb.evaluate({}, None, None, 0.0)
+
+
+def test_reason_is_truncated(sandbox, scene):
+    cs = [Constraint("a", "x", "during")]
+    sandbox.load("def check_a(E, H, t):\n    return True, 'x' * 100000\n", cs)
+    (a,) = sandbox.evaluate(scene, None, None, 0.0)
+    assert a.ok and len(a.reason) == 500
+
+
+def test_replies_may_not_carry_objects():
+    assert _loads_reply(pickle.dumps(("result", 1, [(True, "r", 1.0, False)], None), protocol=5))[0] == "result"
+    with pytest.raises(pickle.UnpicklingError):
+        _loads_reply(pickle.dumps(("result", os.system), protocol=5))
