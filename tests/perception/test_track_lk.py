@@ -91,11 +91,16 @@ def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
     scene = Scene([box])
     els = _elements()[:2]
     calls: list[tuple[float, int]] = []
-    answer: dict[str, Element | None] = {"el": None}
+    found: set[int] = set()  # ids the "painter" can find again
 
-    def reacquire(obs, el):
+    def reacquire(obs, el):  # stands in for the painter: the element where the block now is
         calls.append((obs.t, el.id))
-        return answer["el"] if answer["el"] is not None and answer["el"].id == el.id else None
+        shift = box.center - np.array([0.0, 0.0, 0.03])
+        if el.id not in found:
+            return None
+        if el.id == 1:
+            return Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]) + shift, owner=("red_block", ""))
+        return Element.surface(0, "red top", TOP[:3] + shift, owner=("red_block", "top"))  # 3 points, not 4
 
     tr = make_tracker(TrackerConfig.from_name("lk", reacquire_after=3))
     tr.set_reacquire(reacquire)
@@ -119,15 +124,24 @@ def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
     # The board goes away; the painter (hook) finds the block again where it now is.
     scene.boxes.remove(board)
     moved = box.center - np.array([0.0, 0.0, 0.03])
-    answer["el"] = Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]) + moved, owner=("red_block", ""))
+    found.add(1)
     n_before = len(calls)
     for f in range(9, 14):
         res = tr.step(observe(scene, cams, 0.1 * f))
     assert len(calls) > n_before
     assert not res.stale[1].any()
-    np.testing.assert_allclose(res.points[1], answer["el"].points, atol=0.005)
+    np.testing.assert_allclose(res.points[1], np.array([[0.0, 0.0, 0.06]]) + moved, atol=0.005)
     assert res.stale[0].all()  # the hook found nothing for it: still stale, still at its last value
     np.testing.assert_array_equal(res.points[0], last[0])
+    # Now the painter finds the top again, with 3 points instead of 4; the block keeps moving.
+    found.add(0)
+    for f in range(14, 24):
+        box.center = box.center + v
+        res = tr.step(observe(scene, cams, 0.1 * f))
+    shift = box.center - np.array([0.0, 0.0, 0.03])
+    assert res.points[0].shape == (3, 3) and not res.stale[0].any()
+    np.testing.assert_allclose(res.points[0], TOP[:3] + shift, atol=0.005)
+    np.testing.assert_allclose(res.points[1], np.array([[0.0, 0.0, 0.06]]) + shift, atol=0.005)
 
 
 def test_lk_config_validation():

@@ -325,6 +325,8 @@ class LKTracker(Tracker):
             st = self._views[name]
             st.active[sl] = False
             self._seed(view, st, want)
+            if st.rekey and st.gray is not None:
+                self._rekey(st)  # the new anchors' templates come from this frame
 
     def _result(self, obs: Observation, visible_tracked: dict[int, int]) -> TrackResult:
         points: dict[int, np.ndarray] = {}
