@@ -153,21 +153,28 @@ def test_place_program_verdicts(make_elements, run_program):
     gen, coder = gen_coder()
     objs = infer_objects(STACK)
     sg = _subgoal(gen, objs, 1)
+    upon = ("centred_green_block_on_red_block", "resting_green_block_on_red_block", "released_green_block")
     src, els = program_for(coder, sg, make_elements, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.16]))
     v = run_program(src, els)
-    assert v["attached_green_block"][0] is True  # carried
-    assert v["centred_green_block_on_red_block"][0] is False  # not placed yet: upon not met
+    assert v["attached_green_block"][0] is True and v["still_red_block"][0] is True  # carried
+    assert not any(v[k][0] for k in upon)  # not placed yet
+    # hovering centred above the target, still held: not complete
+    v = run_program(src, make_elements(sg, _place_state([0.5, 0.0, 0.14], [0.5, 0.0, 0.16])))
+    assert v["centred_green_block_on_red_block"][0] is True and v["resting_green_block_on_red_block"][0] is False
+    assert v["released_green_block"][0] is False and classify(v["released_green_block"][1]) == "still_held"
     # dropped on the table on the way
     v = run_program(src, make_elements(sg, _place_state([0.4, 0.1, 0.02], [0.4, 0.1, 0.16])))
-    assert v["attached_green_block"][0] is False and classify(v["attached_green_block"][1]) == "dropped"
-    # placed and released, centred
+    ok, reason, margin = v["attached_green_block"]
+    assert ok is False and margin < 0 and classify(reason) == "dropped"
+    # placed and released, centred: every upon constraint holds
     v = run_program(src, make_elements(sg, _place_state([0.505, 0.0, 0.06], [0.5, 0.0, 0.15])))
     assert v["attached_green_block"][0] is True
-    assert v["centred_green_block_on_red_block"][0] is True
+    assert all(v[k][0] is True and v[k][2] > 0 for k in upon)
     # placed 2.5 cm off centre: proactive failure, recovered by re-picking
     v = run_program(src, make_elements(sg, _place_state([0.525, 0.0, 0.06], [0.52, 0.0, 0.15])))
     ok, reason, margin = v["centred_green_block_on_red_block"]
     assert ok is False and margin < 0 and classify(reason) == "offset"
+    assert v["resting_green_block_on_red_block"][0] is True and v["released_green_block"][0] is True
     # the block below was pushed 3 cm during the placement
     els = make_elements(sg, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.16]))
     hist = [np.stack([e.points, e.points]) for e in els]
@@ -214,7 +221,8 @@ def test_sweep_plan_and_program(make_elements, run_program):
     v = run_program(src, make_elements(sg, _zone_and_blocks(int(upon.thresholds["target"]))))
     assert v[upon.id][0] is True
     v = run_program(src, make_elements(sg, _zone_and_blocks(30)))
-    assert v[upon.id][0] is False and v[sg.during()[0].id][0] is False
+    assert v[upon.id][0] is True and v[sg.during()[0].id][0] is False
+    assert classify(v[sg.during()[0].id][1]) == "overshoot"
     assert gen.next_subgoal(SWEEP, IMG, objs, sg, "success").done
 
 

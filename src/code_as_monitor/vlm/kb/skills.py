@@ -44,7 +44,10 @@ def pick(obj: str) -> list[dict[str, Any]]:
 
 
 def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[dict[str, Any]]:
-    """``place_on`` a block: stays attached until placed, the block below stays put, lands centred.
+    """``place_on`` a block: stays attached until placed, the block below stays put; lands centred, resting, released.
+
+    The three upon constraints are separate single-decision checks so that all of them must hold
+    before the subgoal counts as complete (a block hovering centred above the target is not placed).
 
     Args:
         obj: the carried block.
@@ -52,6 +55,7 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
         tower_below: (upper, lower) pairs already stacked under ``target`` that must stay stacked.
     """
     att, still, cen = thresholds("attached"), thresholds("still"), thresholds("centred")
+    rest, rel = thresholds("resting"), thresholds("released")
     out = [
         _c(
             f"attached_{obj}",
@@ -66,9 +70,20 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
         ),
         _c(
             f"centred_{obj}_on_{target}",
-            f"{nice(obj)} rests on {nice(target)}, centred within {cen['max_offset'] * 100:.1f} cm, and is released; "
-            f"an offset block makes the tower topple when the next block lands",
+            f"{nice(obj)} is centred on {nice(target)} within {cen['max_offset'] * 100:.1f} cm; an offset block "
+            f"makes the tower topple when the next block lands",
             "upon", True, cen, [TIP, whole(obj), whole(target)],
+        ),
+        _c(
+            f"resting_{obj}_on_{target}",
+            f"{nice(obj)} rests on {nice(target)}: its centre one block above the centre of {nice(target)}",
+            "upon", False, rest, [TIP, whole(obj), whole(target)],
+        ),
+        _c(
+            f"released_{obj}",
+            f"{nice(obj)} is released: the suction cup tip is at least {rel['release_dist'] * 100:.0f} cm from its "
+            f"centre",
+            "upon", False, rel, [TIP, whole(obj)],
         ),
     ]
     tower = thresholds("tower")

@@ -4,7 +4,7 @@
 The template key is the prefix of the constraint id (``held_green_block`` -> ``held``); ids without a
 known prefix fall back to keywords in the constraint text. Generated code uses only ``np``, ``math``
 and the monitor helpers, returns literal ``True``/``False`` from explicit branches (so path-coverage
-testing can reach every branch) and formats reasons with ``%`` (no builtins needed).
+testing can reach every branch: one decision per check, its reason carrying every measurement) and formats reasons with ``%`` (no builtins needed).
 """
 
 from __future__ import annotations
@@ -45,14 +45,14 @@ def _name(c: Spec, k: int) -> str:
 def held(c: Spec) -> str:
     tip, x = c["element_ids"][:2]
     th, xn = c["thresholds"], _name(c, 1)
+    md, mz = _f(th["max_dist"]), _f(th["min_z"])
     body = f"""
     d = distance(E[{tip}], E[{x}])
     z = centroid(E[{x}])[2]
-    if d > {_f(th["max_dist"])}:
-        return False, {_q(xn + " is not held by the suction cup: %.3f m from the tip")} % d, {_f(th["max_dist"])} - d
-    if z < {_f(th["min_z"])}:
-        return False, {_q(xn + " is not held: not lifted, its centre is %.3f m above the table")} % z, z - {_f(th["min_z"])}
-    return True, {_q(xn + " is held by the suction cup")}, np.min([{_f(th["max_dist"])} - d, z - {_f(th["min_z"])}])
+    margin = np.min([{md} - d, z - {mz}])
+    if d <= {md} and z >= {mz}:
+        return True, {_q(xn + " is held by the suction cup (%.3f m from the tip, lifted to %.3f m)")} % (d, z), margin
+    return False, {_q(xn + " is not held by the suction cup: %.3f m from the tip (limit " + md + "), centre %.3f m above the table (needs " + mz + ")")} % (d, z), margin
 """
     return _fn(c, body)
 
@@ -60,15 +60,15 @@ def held(c: Spec) -> str:
 def attached(c: Spec) -> str:
     tip, x, tgt = c["element_ids"][:3]
     th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    md, rxy, lo, hi = _f(th["max_dist"]), _f(th["release_xy"]), _f(th["min_dz"]), _f(th["max_dz"])
     body = f"""
     d = distance(E[{tip}], E[{x}])
-    if d <= {_f(th["max_dist"])}:
-        return True, {_q(xn + " is attached to the suction cup")}, {_f(th["max_dist"])} - d
     off = horizontal_distance(E[{x}], E[{tgt}])
     dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
-    if off <= {_f(th["release_xy"])} and dz >= {_f(th["min_dz"])} and dz <= {_f(th["max_dz"])}:
-        return True, {_q(xn + " was released onto " + tn)}, {_f(th["release_xy"])} - off
-    return False, {_q(xn + " dropped: detached from the suction cup (%.3f m from the tip) before resting on " + tn)} % d, {_f(th["max_dist"])} - d
+    margin = np.max([{md} - d, np.min([{rxy} - off, dz - {lo}, {hi} - dz])])
+    if d <= {md} or (off <= {rxy} and dz >= {lo} and dz <= {hi}):
+        return True, {_q(xn + " is on the suction cup or was released onto " + tn + " (%.3f m from the tip)")} % d, margin
+    return False, {_q(xn + " dropped: detached from the suction cup (%.3f m from the tip) before resting on " + tn)} % d, margin
 """
     return _fn(c, body)
 
@@ -76,46 +76,67 @@ def attached(c: Spec) -> str:
 def still(c: Spec) -> str:
     (tgt,) = c["element_ids"][:1]
     th, tn = c["thresholds"], _name(c, 0)
+    mx = _f(th["max_disp"])
     body = f"""
     m = displacement(H[{tgt}])
-    if m > {_f(th["max_disp"])}:
-        return False, {_q(tn + " moved %.3f m: the tower below is disturbed and stacking on it will topple")} % m, {_f(th["max_disp"])} - m
-    return True, {_q(tn + " stays in place (moved %.3f m)")} % m, {_f(th["max_disp"])} - m
+    if m <= {mx}:
+        return True, {_q(tn + " stays in place (moved %.3f m)")} % m, {mx} - m
+    return False, {_q(tn + " moved %.3f m: the tower below is disturbed and stacking on it will topple")} % m, {mx} - m
 """
     return _fn(c, body)
 
 
 def centred(c: Spec) -> str:
-    tip, x, tgt = c["element_ids"][:3]
+    x, tgt = c["element_ids"][1:3]
     th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    mo = _f(th["max_offset"])
     body = f"""
     off = horizontal_distance(E[{x}], E[{tgt}])
+    if off <= {mo}:
+        return True, {_q(xn + " is centred on " + tn + " (offset %.3f m)")} % off, {mo} - off
+    return False, {_q(xn + " is offset %.3f m from the centre of " + tn + " (limit " + mo + "): stacking on it will topple")} % off, {mo} - off
+"""
+    return _fn(c, body)
+
+
+def resting(c: Spec) -> str:
+    x, tgt = c["element_ids"][1:3]
+    th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    lo, hi = _f(th["min_dz"]), _f(th["max_dz"])
+    body = f"""
     dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
+    margin = np.min([dz - {lo}, {hi} - dz])
+    if dz >= {lo} and dz <= {hi}:
+        return True, {_q(xn + " rests on " + tn + " (%.3f m above its centre)")} % dz, margin
+    return False, {_q(xn + " is not resting on " + tn + ": its centre is %.3f m above the centre of " + tn + " (expected " + lo + " to " + hi + ")")} % dz, margin
+"""
+    return _fn(c, body)
+
+
+def released(c: Spec) -> str:
+    tip, x = c["element_ids"][:2]
+    th, xn = c["thresholds"], _name(c, 1)
+    rd = _f(th["release_dist"])
+    body = f"""
     d = distance(E[{tip}], E[{x}])
-    if dz < {_f(th["min_dz"])}:
-        return False, {_q(xn + " is not resting on " + tn + ": %.3f m below its resting height")} % ({_f(th["min_dz"])} - dz), dz - {_f(th["min_dz"])}
-    if dz > {_f(th["max_dz"])}:
-        return False, {_q(xn + " is still %.3f m above " + tn + ", not placed yet")} % dz, {_f(th["max_dz"])} - dz
-    if off > {_f(th["max_offset"])}:
-        return False, {_q(xn + " is offset %.3f m from the centre of " + tn + ": stacking on it will topple")} % off, {_f(th["max_offset"])} - off
-    if d < {_f(th["release_dist"])}:
-        return False, {_q(xn + " is still held by the suction cup on " + tn)}, d - {_f(th["release_dist"])}
-    return True, {_q(xn + " rests on " + tn + ", offset %.3f m")} % off, {_f(th["max_offset"])} - off
+    if d >= {rd}:
+        return True, {_q(xn + " is released (the tip is %.3f m away)")} % d, d - {rd}
+    return False, {_q(xn + " is still held by the suction cup (the tip is %.3f m from its centre)")} % d, d - {rd}
 """
     return _fn(c, body)
 
 
 def tower(c: Spec) -> str:
-    up, lo = c["element_ids"][:2]
+    up, lo_id = c["element_ids"][:2]
     th, un, ln = c["thresholds"], _name(c, 0), _name(c, 1)
+    mo, lo, hi = _f(th["max_offset"]), _f(th["min_dz"]), _f(th["max_dz"])
     body = f"""
-    off = horizontal_distance(E[{up}], E[{lo}])
-    dz = centroid(E[{up}])[2] - centroid(E[{lo}])[2]
-    if dz < {_f(th["min_dz"])} or dz > {_f(th["max_dz"])}:
-        return False, {_q(un + " is no longer on " + ln + " (height difference %.3f m): the tower collapsed")} % dz, -np.abs(dz - {_f((th["min_dz"] + th["max_dz"]) / 2)})
-    if off > {_f(th["max_offset"])}:
-        return False, {_q(un + " is no longer on " + ln + ": it slid %.3f m off centre, the tower collapsed")} % off, {_f(th["max_offset"])} - off
-    return True, {_q(un + " is still on " + ln)}, {_f(th["max_offset"])} - off
+    off = horizontal_distance(E[{up}], E[{lo_id}])
+    dz = centroid(E[{up}])[2] - centroid(E[{lo_id}])[2]
+    margin = np.min([{mo} - off, dz - {lo}, {hi} - dz])
+    if off <= {mo} and dz >= {lo} and dz <= {hi}:
+        return True, {_q(un + " is still on " + ln + " (offset %.3f m)")} % off, margin
+    return False, {_q(un + " is no longer on " + ln + " (offset %.3f m, height difference %.3f m): the tower collapsed")} % (off, dz), margin
 """
     return _fn(c, body)
 
@@ -129,14 +150,12 @@ def _blocks_and_zone(c: Spec) -> tuple[int, list[int]]:
 def reached(c: Spec) -> str:
     zone, blocks = _blocks_and_zone(c)
     th = c["thresholds"]
-    tgt, up, total = int(th["target"]), int(th["upper"]), int(th["total"])
+    tgt, total = int(th["target"]), len(blocks)
     body = f"""
     n = count_in_polygon([E[i] for i in {tuple(blocks)!r}], E[{zone}])
-    if n < {tgt}:
-        return False, "only %d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
-    if n > {up}:
-        return False, "%d blocks are inside the zone, more than {up}" % n, {up} - n + 0.5
-    return True, "%d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
+    if n >= {tgt}:
+        return True, "%d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
+    return False, "only %d of {total} blocks are inside the zone (target {tgt})" % n, n - {tgt} + 0.5
 """
     return _fn(c, body)
 
@@ -146,23 +165,23 @@ def capped(c: Spec) -> str:
     up = int(c["thresholds"]["upper"])
     body = f"""
     n = count_in_polygon([E[i] for i in {tuple(blocks)!r}], E[{zone}])
-    if n > {up}:
-        return False, "%d blocks are inside the zone, more than {up}" % n, {up} - n + 0.5
-    return True, "%d blocks are inside the zone (at most {up})" % n, {up} - n + 0.5
+    if n <= {up}:
+        return True, "%d blocks are inside the zone (at most {up})" % n, {up} - n + 0.5
+    return False, "%d blocks are inside the zone, more than {up}" % n, {up} - n + 0.5
 """
     return _fn(c, body)
 
 
 def ends(c: Spec) -> str:
     e0, e1, c0, c1 = c["element_ids"][:4]
-    tol = c["thresholds"]["max_dist"]
+    tol = _f(c["thresholds"]["max_dist"])
     body = f"""
     a = np.max([distance(E[{e0}], E[{c0}]), distance(E[{e1}], E[{c1}])])
     b = np.max([distance(E[{e0}], E[{c1}]), distance(E[{e1}], E[{c0}])])
     err = np.min([a, b])
-    if err > {_f(tol)}:
-        return False, "the opening of the square is not enclosed: a rope end is %.3f m from its corner" % err, {_f(tol)} - err
-    return True, "the rope ends reach the opening corners (worst %.3f m)" % err, {_f(tol)} - err
+    if err <= {tol}:
+        return True, "the rope ends reach the opening corners (worst %.3f m)" % err, {tol} - err
+    return False, "the opening of the square is not enclosed: a rope end is %.3f m from its corner" % err, {tol} - err
 """
     return _fn(c, body)
 
@@ -172,9 +191,9 @@ def _tilt(c: Spec, what: str, vec: str) -> str:
     tol, n = c["thresholds"]["max_tilt"], _name(c, 0)
     body = f"""
     a = angle_to_vertical({vec}(E[{el}]))
-    if a > {_f(tol)}:
-        return False, {_q(n + " is not " + what + ": %.1f degrees from vertical")} % math.degrees(a), {_f(tol)} - a
-    return True, {_q(n + " is " + what + " (%.1f degrees)")} % math.degrees(a), {_f(tol)} - a
+    if a <= {_f(tol)}:
+        return True, {_q(n + " is " + what + " (%.1f degrees)")} % math.degrees(a), {_f(tol)} - a
+    return False, {_q(n + " is not " + what + ": %.1f degrees from vertical")} % math.degrees(a), {_f(tol)} - a
 """
     return _fn(c, body)
 
@@ -188,11 +207,13 @@ def level(c: Spec) -> str:
 
 
 TEMPLATES: dict[str, Callable[[Spec], str]] = {
-    "held": held, "attached": attached, "still": still, "centred": centred, "tower": tower,
+    "held": held, "attached": attached, "still": still, "centred": centred, "resting": resting,
+    "released": released, "tower": tower,
     "reached": reached, "capped": capped, "ends": ends, "upright": upright, "level": level,
 }
 KEYWORDS: tuple[tuple[str, str], ...] = (
     ("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
+    ("rests on", "resting"), ("released", "released"),
     ("still on", "tower"), ("inside", "reached"), ("rope", "ends"), ("upright", "upright"), ("level", "level"),
 )
 

@@ -27,12 +27,11 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # place_on, during (proactive): the block below must not be pushed while we stack on it.
     "still": {"max_disp": 0.02},
     # place_on, upon (proactive): an off-centre block makes the next level topple.
-    "centred": {
-        "max_offset": 0.015,
-        "min_dz": 0.5 * BLOCK_SIZE,
-        "max_dz": 1.5 * BLOCK_SIZE,
-        "release_dist": 0.04,  # tip must be at least this far from the block centre (released)
-    },
+    "centred": {"max_offset": 0.015},
+    # place_on, upon: the block sits one block size above the target's centre ...
+    "resting": {"min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
+    # ... and the cup has let go (the tip is further from the block centre than at contact).
+    "released": {"release_dist": 0.04},
     # place_on, during: lower levels of the tower stay stacked (reactive collapse detection).
     "tower": {"max_offset": 0.025, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
     # push_into_region: "half of the blocks", accepted within +-10 % of all blocks (paper: 16-24 of 40).
