@@ -1,0 +1,163 @@
+"""White-box path coverage at subgoal start: crashing branches, dead branches, failing starts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import GOOD
+
+from code_as_monitor.core.errors import ProgramError
+from code_as_monitor.monitor.coverage import CoverageError, check_path_coverage
+from code_as_monitor.monitor.instrument import instrument
+from code_as_monitor.monitor.perturb import make_probes
+from code_as_monitor.monitor.sandbox import Sandbox
+from code_as_monitor.monitor.validate import validate_program
+
+B = '''
+
+def check_b(E, H, t):
+    return bool(E[1][:, 2].mean() > 0.1), "height"
+'''
+
+
+def _a(body: str) -> str:
+    lines = "\n".join("    " + line for line in body.strip("\n").splitlines())
+    return f"def check_a(E, H, t):\n{lines}\n" + B
+
+
+CRASHING_BRANCH = _a('''
+d = distance(E[0], E[1])
+if d > 0.1:
+    return False, "block dropped, " + d
+return True, "attached"
+''')
+
+DEAD_BRANCH = _a('''
+d = distance(E[0], E[1])
+if d < 0:
+    return False, "negative distance"
+return d < 0.05, "attached"
+''')
+
+NON_BOOL_BRANCH = _a('''
+d = distance(E[0], E[1])
+if len(H.t) < 2:
+    return "maybe", "no history yet"
+return d < 0.05, "attached"
+''')
+
+FAILS_AT_START = _a('''
+d = distance(E[0], E[1])
+return d < 0.01, f"{d:.3f} m from the tip"
+''')
+
+LOOPS_WHEN_FAR = _a('''
+d = distance(E[0], E[1])
+if d > 0.15:
+    for i in range(10 ** 12):
+        pass
+return d < 0.05, "attached"
+''')
+
+ELIF_AND_TERNARY = _a('''
+d = distance(E[0], E[1])
+n = normal(E[1])
+level = "level" if angle_to_vertical(n) < 0.3 else "tilted"
+if d > 0.1:
+    return False, f"far, {level}"
+elif d > 0.05:
+    return False, f"slipping, {level}"
+for i in range(len(H.t) - 1):
+    if displacement(H[1][i:i + 2]) > 0.05:
+        return False, "jerk"
+return True, f"attached, {level}"
+''')
+
+
+def _run(source, constraints, scene, sandbox, **kw):
+    return check_path_coverage(source, constraints, scene, None, None, 1.0, sandbox, **kw)
+
+
+def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
+    report = _run(GOOD, constraints, scene, sandbox)
+    assert report.ok and report.fraction == 1.0
+    assert report.covered == {b.id for b in report.branches}
+    assert report.n_inputs == 97
+    assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
+
+
+def test_elif_for_and_ternary_branches_are_all_driven(sandbox, constraints, scene):
+    report = _run(ELIF_AND_TERNARY, constraints, scene, sandbox)
+    kinds = sorted(b.kind for b in report.branches)
+    assert kinds.count("if-true") == 3 and "for-body" in kinds and "ifexp-false" in kinds
+    assert report.fraction == 1.0
+
+
+def test_crashing_branch_is_caught_with_its_input(sandbox, constraints, scene):
+    with pytest.raises(CoverageError) as err:
+        _run(CRASHING_BRANCH, constraints, scene, sandbox)
+    msg = str(err.value)
+    assert "check_a: raised TypeError" in msg and "(input " in msg
+    assert isinstance(err.value, ProgramError) and err.value.report.faults
+
+
+def test_unreachable_branch_is_reported_with_its_line(sandbox, constraints, scene):
+    with pytest.raises(CoverageError) as err:
+        _run(DEAD_BRANCH, constraints, scene, sandbox)
+    assert "check_a, line 3: the 'if' condition is never true" in str(err.value)
+    report = _run(DEAD_BRANCH, constraints, scene, sandbox, require_full_coverage=False)
+    assert [b.line for b in report.unreached] == [3] and report.fraction < 1.0
+
+
+def test_non_bool_result_on_a_rare_branch(sandbox, constraints, scene):
+    H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
+    with pytest.raises(CoverageError, match=r"ok must be a bool, got str \(input \d+: .*T=1"):
+        check_path_coverage(NON_BOOL_BRANCH, constraints, scene, H, np.linspace(0.6, 1.0, 5), 1.0, sandbox)
+
+
+def test_during_check_failing_at_start(sandbox, constraints, scene):
+    with pytest.raises(CoverageError) as err:
+        _run(FAILS_AT_START, constraints, scene, sandbox)
+    assert "already fail on the starting state" in str(err.value)
+    assert "check_a: returned False, '0.020 m from the tip'" in str(err.value)
+    assert "check_b" not in str(err.value)  # an upon check may well be False at the start
+
+
+def test_overrun_on_a_branch_stops_early(constraints, scene):
+    with Sandbox(deadline_s=0.02) as sb, pytest.raises(CoverageError) as err:
+        _run(LOOPS_WHEN_FAR, constraints, scene, sb, deadline_s=0.05)
+    msg = str(err.value)
+    assert "deadline 50 ms exceeded" in msg and "stopped after 2 overruns" in msg
+    sb_report = err.value.report
+    assert sb_report.n_inputs < 97 and not sb_report.unreached
+
+
+def test_factory_and_rejection_before_running(constraints, scene):
+    report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=10)
+    assert report.n_inputs == 11
+    with pytest.raises(ProgramError, match="'while'"):
+        _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
+
+
+def test_probes_are_consistent_and_deterministic(scene):
+    H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
+    Ht = np.linspace(0.0, 0.4, 5)
+    probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
+    assert len(probes) == 41 and probes[0].description.startswith("the current state")
+    assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
+    for p in probes:
+        T = len(p.history_t)
+        assert set(p.elements) == set(p.history) == {0, 1}
+        for i in (0, 1):
+            assert p.elements[i].shape == scene[i].shape and p.history[i].shape == (T, *scene[i].shape)
+            np.testing.assert_allclose(p.history[i][-1], p.elements[i], atol=1e-12)
+    lengths = {len(p.history_t) for p in probes}
+    assert 1 in lengths and 5 in lengths
+    assert any("piled" in p.description for p in probes) and any("rotated" in p.description for p in probes)
+
+
+def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints):
+    tree = validate_program(ELIF_AND_TERNARY, constraints)
+    assert instrument(tree)[1] == instrument(validate_program(ELIF_AND_TERNARY, constraints))[1]
+    with pytest.raises(ProgramError, match="__cam_cov__"):
+        validate_program(GOOD.replace('"block attached"', '__cam_cov__(0, "x")'), constraints)
