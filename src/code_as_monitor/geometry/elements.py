@@ -34,7 +34,7 @@ from code_as_monitor.core.camera import CameraModel, validate_rigid
 from code_as_monitor.core.elements import Element, ElementKind, ElementSpec, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError, NoValidDepthError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample
+from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample, voxel_keys
 
 VOXEL_DIVISIONS: dict[ElementKind, tuple[int, int, int]] = {
     ElementKind.POINT: (1, 1, 1),
@@ -48,6 +48,8 @@ MIN_FINE_VOXEL = 0.003
 """Metres: the finest voxel of the downsampling grid."""
 FINE_VOXELS_ACROSS = 100
 """The fine voxel is at least the part's robust extent divided by this (bounds the cloud size)."""
+DBSCAN_MAX_POINTS = 1500
+"""DBSCAN runs on a grid coarse enough to hold about this many points (it dominates the cost)."""
 
 Observation3D = tuple[np.ndarray, np.ndarray, CameraModel]
 """``(mask (H, W) bool, depth (H, W) metres, camera)``: one view of one part."""
@@ -88,14 +90,24 @@ def _principal_axes(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _dense_clusters(Q: np.ndarray, voxel: float, min_cluster_frac: float = 0.1) -> np.ndarray:
     """Rows of ``Q`` (M, 3) kept by DBSCAN: every cluster at least ``min_cluster_frac`` of the largest.
 
-    ``eps`` is 2.5 fine voxels (a surface voxel has ~20 neighbours within it), ``min_samples`` 4.
-    Returns all of ``Q`` when DBSCAN finds no cluster (a tiny cloud).
+    DBSCAN runs on at most about :data:`DBSCAN_MAX_POINTS` voxel centres: ``Q`` is re-gridded with a
+    voxel ``g >= voxel`` chosen for that, and each row of ``Q`` takes its voxel's label. ``eps`` is
+    2.5 voxels ``g`` (a surface voxel has ~20 neighbours within it), ``min_samples`` 4. Returns all
+    of ``Q`` when DBSCAN finds no cluster (a tiny cloud).
     """
     if len(Q) < 8:
         return Q
     from sklearn.cluster import DBSCAN
 
-    labels = DBSCAN(eps=2.5 * voxel, min_samples=4).fit_predict(Q)
+    g = voxel * max(1.0, float(np.sqrt(len(Q) / DBSCAN_MAX_POINTS)))  # surfaces: count ~ 1 / g^2
+    if g > voxel:
+        _, inv = np.unique(voxel_keys(Q, g), return_inverse=True)
+        inv = inv.reshape(-1)
+        counts = np.bincount(inv)
+        C = np.stack([np.bincount(inv, weights=Q[:, i]) for i in range(3)], axis=1) / counts[:, None]
+    else:
+        inv, C = np.arange(len(Q)), Q
+    labels = DBSCAN(eps=2.5 * g, min_samples=4).fit_predict(C)[inv]
     good = labels >= 0
     if not good.any():
         return Q
@@ -109,16 +121,44 @@ def _orient(d: np.ndarray) -> np.ndarray:
     return -d if d[int(np.argmax(np.abs(d)))] < 0 else d
 
 
-def _fit_point(Q: np.ndarray) -> np.ndarray:
+class _Support:
+    """Picks representatives that are DBSCAN-style core points of the fine cloud ``Q`` (M, 3).
+
+    A point is supported when it has at least half the cloud's median number of neighbours within
+    2.5 fine voxels: a lone outlier that survived the filters (say, one just behind the visible
+    surface, close to the centroid) is never chosen, however well it ranks.
+    """
+
+    def __init__(self, Q: np.ndarray, voxel: float) -> None:
+        from scipy.spatial import cKDTree
+
+        self.Q = Q
+        self.tree = cKDTree(Q)
+        self.r = 2.5 * voxel
+        sample = Q[np.linspace(0, len(Q) - 1, min(len(Q), 256)).astype(np.int64)]
+        self.need = 0.5 * float(np.median(self.tree.query_ball_point(sample, self.r, return_length=True)))
+
+    def first(self, order: np.ndarray, chunk: int = 32) -> int:
+        """The first index of ``order`` (indices into Q, best first) that is supported (else ``order[0]``)."""
+        for k in range(0, len(order), chunk):
+            idx = order[k : k + chunk]
+            ok = self.tree.query_ball_point(self.Q[idx], self.r, return_length=True) >= self.need
+            if ok.any():
+                return int(idx[np.argmax(ok)])
+        return int(order[0])
+
+
+def _fit_point(Q: np.ndarray, sup: _Support) -> np.ndarray:
     c = Q.mean(axis=0)
-    return Q[int(np.argmin(((Q - c) ** 2).sum(axis=1)))][None]
+    return Q[sup.first(np.argsort(((Q - c) ** 2).sum(axis=1)))][None]
 
 
-def _fit_line(Q: np.ndarray) -> np.ndarray:
+def _fit_line(Q: np.ndarray, sup: _Support) -> np.ndarray:
     c, axes = _principal_axes(Q)
     d = _orient(axes[0])
     s = (Q - c) @ d
-    lo, hi = float(s.min()), float(s.max())
+    order = np.argsort(s)
+    lo, hi = float(s[sup.first(order)]), float(s[sup.first(order[::-1])])
     if hi - lo < 1e-6:
         raise ElementError(f"cannot fit a line: the {len(Q)} points coincide")
     # Two element voxels along the axis: [lo, mid) and [mid, hi]; each one's representative is its
@@ -151,40 +191,43 @@ def _min_area_rect(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ((lo + hi) / 2.0) @ R, R, (hi - lo) / 2.0
 
 
-def _fit_surface(Q: np.ndarray) -> np.ndarray:
+def _fit_surface(Q: np.ndarray, sup: _Support) -> np.ndarray:
     if len(Q) < 3:
         raise ElementError(f"cannot fit a surface through {len(Q)} point(s)")
+    ids = np.arange(len(Q))
     c, axes = _principal_axes(Q)
     # Robust plane: refit on points within 3 robust sigmas (MAD) of the first least-squares plane.
     r = (Q - c) @ axes[2]
-    sigma = 1.4826 * np.median(np.abs(r - np.median(r)))
-    inl = np.abs(r - np.median(r)) <= max(3.0 * sigma, 1e-4)
+    dev = np.abs(r - np.median(r))
+    inl = dev <= max(3.0 * 1.4826 * float(np.median(dev)), 1e-4)
     if inl.sum() >= 3:
-        Q = Q[inl]
-        c, axes = _principal_axes(Q)
+        ids = ids[inl]
+        c, axes = _principal_axes(Q[ids])
     n = axes[2] if axes[2][2] >= 0 else -axes[2]
     e1 = axes[0]
     e2 = np.cross(n, e1)  # (e1, e2, n) right-handed: counter-clockwise seen from +n
-    xy = np.stack([(Q - c) @ e1, (Q - c) @ e2], axis=1)
+    E = np.stack([e1, e2], axis=1)  # (3, 2) plane coordinates
+    xy = (Q[ids] - c) @ E
     centre, R, half = _min_area_rect(xy)
     if half.min() < 1e-6:
-        raise ElementError(f"cannot fit a surface: the {len(Q)} points are collinear")
+        raise ElementError(f"cannot fit a surface: the {len(ids)} points are collinear")
     uv = (xy - centre) @ R.T / half  # in [-1, 1]^2 over the occupied rectangle
     reps = []
-    # 2 x 2 element voxels, visited counter-clockwise in the (u, v) frame.
+    # 2 x 2 element voxels; each one's representative is its supported point furthest towards the
+    # voxel's outer corner, projected on the plane.
     for su, sv in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
-        in_cell = (su * uv[:, 0] >= 0) & (sv * uv[:, 1] >= 0)
-        if not in_cell.any():
+        cell = np.flatnonzero((su * uv[:, 0] >= 0) & (sv * uv[:, 1] >= 0))
+        if len(cell) == 0:
             continue
-        idx = np.flatnonzero(in_cell)
-        reps.append(xy[idx[np.argmax(su * uv[idx, 0] + sv * uv[idx, 1])]])
+        order = cell[np.argsort(-(su * uv[cell, 0] + sv * uv[cell, 1]))]
+        reps.append((Q[sup.first(ids[order])] - c) @ E)
     if len(reps) < 3:
         raise ElementError(f"cannot fit a surface: only {len(reps)} of the 2 x 2 voxels are occupied")
     rep = np.array(reps)
     # R may be a reflection of (e1, e2): restore counter-clockwise order seen from +n.
     ang = np.arctan2(rep[:, 1] - rep[:, 1].mean(), rep[:, 0] - rep[:, 0].mean())
     rep = rep[np.argsort(ang)]
-    return c + rep[:, :1] * e1 + rep[:, 1:2] * e2
+    return c + rep @ E.T
 
 
 def fit_element_points(
@@ -212,11 +255,12 @@ def fit_element_points(
     vs = fine_voxel_size(P) if voxel_size is None else float(voxel_size)
     Q, _ = voxel_downsample(P, vs)
     Q = _dense_clusters(Q, vs)
+    sup = _Support(Q, vs)
     if kind is ElementKind.POINT:
-        return _fit_point(Q)
+        return _fit_point(Q, sup)
     if kind is ElementKind.LINE:
-        return _fit_line(Q)
-    return _fit_surface(Q)
+        return _fit_line(Q, sup)
+    return _fit_surface(Q, sup)
 
 
 def part_cloud(
