@@ -1,0 +1,156 @@
+"""ConstraintGenerator and MonitorCoder against a scripted in-process backend."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from code_as_monitor.core import Action, Constraint, Element, ElementSpec, Subgoal
+from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
+from code_as_monitor.planning import (
+    ConstraintGenerator,
+    MonitorCoder,
+    basic_check,
+    legend_specs,
+    program_defines_checks,
+    resolve_element_ids,
+)
+from code_as_monitor.vlm.backend import VLMResponse
+from code_as_monitor.vlm.messages import Message
+from code_as_monitor.vlm.parsing import extract_request
+
+OBJECTS = ["red_block", "green_block", "table"]
+ANSWER = {
+    "subgoal": "pick up the green block", "done": False,
+    "action": {"skill": "pick", "args": {"obj": "green_block"}},
+    "constraints": [{"id": "held", "text": "the green block is held", "phase": "upon", "thresholds": {"d": 0.04},
+                     "parts": [{"name": "tip", "obj": "robot", "part": "tip", "kind": "point"},
+                               {"name": "green", "obj": "green_block", "part": "", "kind": "point"}]}],
+}
+
+
+class Scripted:
+    def __init__(self, *texts: str) -> None:
+        self.texts = list(texts)
+        self.calls: list[tuple[list[Message], str]] = []
+
+    def complete(self, messages: list[Message], *, purpose: str) -> VLMResponse:
+        self.calls.append((messages, purpose))
+        return VLMResponse(self.texts.pop(0), 10, 5, "scripted")
+
+
+def test_generator_request_carries_everything_eq1_needs():
+    be = Scripted(json.dumps(ANSWER))
+    gen = ConstraintGenerator(be)
+    prev = Subgoal("pick up the red block", [], Action("pick", {"obj": "red_block"}))
+    img = {"front": np.zeros((4, 4, 3), np.uint8), "top": np.ones((4, 4, 3), np.uint8)}
+    sg = gen.next_subgoal("stack", img, OBJECTS, prev, "red_block dropped")
+    assert sg.text == "pick up the green block" and sg.constraints[0].thresholds == {"d": 0.04}
+    msgs, purpose = be.calls[0]
+    assert purpose == "constraint_generator" and [m.role for m in msgs] == ["system", "user"]
+    assert "`pick`" in msgs[0].text and "during" in msgs[0].text and "proactive" in msgs[0].text
+    req = extract_request(msgs[1].text)
+    assert req["instruction"] == "stack" and req["objects"] == OBJECTS and req["views"] == ["front", "top"]
+    assert req["previous_subgoal"]["action"] == {"skill": "pick", "args": {"obj": "red_block"}}
+    assert req["feedback"] == "red_block dropped"
+    assert [im.label for im in msgs[1].images] == ["front", "top"]
+
+
+def test_generator_reasks_then_raises():
+    bad = json.dumps({**ANSWER, "action": {"skill": "pick", "args": {}}, "constraints": []})
+    be = Scripted(bad, "not json", json.dumps(ANSWER))
+    gen = ConstraintGenerator(be, max_retries=2)
+    assert gen.next_subgoal("stack", {}, OBJECTS).action.skill == "pick"
+    assert len(be.calls) == 3
+    last_msgs = be.calls[2][0]
+    assert [m.role for m in last_msgs] == ["system", "user", "assistant", "user", "assistant", "user"]
+    assert "at least one constraint" in last_msgs[3].text and "no JSON object" in last_msgs[5].text
+    gen = ConstraintGenerator(Scripted("x", "y"), max_retries=1)
+    with pytest.raises(VLMOutputError, match="after 2 attempt"):
+        gen.next_subgoal("stack", {}, OBJECTS)
+    assert gen.usage.calls == 2 and gen.usage.per_subgoal()[0]["prompt_tokens"] == 20
+    with pytest.raises(ConfigError):
+        ConstraintGenerator(be, max_retries=-1)
+
+
+def _subgoal() -> Subgoal:
+    tip = ElementSpec("tip", "robot", "tip", "point")
+    g = ElementSpec("green", "green_block", "", "point")
+    r = ElementSpec("red", "red_block", "", "point")
+    return Subgoal("place green on red", [
+        Constraint("attached", "green stays attached", "during", [tip, g]),
+        Constraint("centred", "green centred on red", "upon", [g, r], proactive=True),
+    ], Action("place_on", {"obj": "green_block", "target": "red_block"}))
+
+
+def _elements(sg: Subgoal) -> list[Element]:
+    specs = legend_specs(sg)
+    return [Element(i, s.name, s.kind, np.full((1, 3), float(i)), (s.obj, s.part)) for i, s in enumerate(specs)]
+
+
+GOOD_PROGRAM = """```python
+def check_attached(E, H, t):
+    return True, "ok"
+
+
+def check_centred(E, H, t):
+    return True, "ok", 0.01
+```"""
+
+
+def test_legend_order_and_id_resolution():
+    sg = _subgoal()
+    assert [(s.obj, s.part) for s in legend_specs(sg)] == [("robot", "tip"), ("green_block", ""), ("red_block", "")]
+    els = _elements(sg)
+    assert resolve_element_ids(sg, els) == {"attached": [0, 1], "centred": [1, 2]}
+    shuffled = [Element(5 - e.id, e.name, e.kind, e.points, e.owner) for e in els]
+    assert resolve_element_ids(sg, shuffled) == {"attached": [5, 4], "centred": [4, 3]}
+    sg.constraints[0].element_ids = [2, 1]  # painter-filled ids win
+    assert resolve_element_ids(sg, els)["attached"] == [2, 1]
+    with pytest.raises(ConfigError, match="no element for part red_block"):
+        resolve_element_ids(_subgoal(), els[:2])
+
+
+def test_coder_request_and_reasks():
+    sg = _subgoal()
+    els = _elements(sg)
+    be = Scripted("```python\ndef check_attached(E, H, t)\n```", "def check_attached(E, H, t):\n    return True, 'x'\n",
+                  GOOD_PROGRAM)
+    coder = MonitorCoder(be)
+    src = coder.write_program(sg, els, {"front": np.zeros((2, 2, 3), np.uint8)}, basic_check(["attached", "centred"]),
+                              feedback="branch never reached")
+    assert src.startswith("def check_attached") and "```" not in src
+    first, purpose = be.calls[0]
+    assert purpose == "monitor_coder"
+    req = extract_request(first[1].text)
+    assert [c["element_ids"] for c in req["constraints"]] == [[0, 1], [1, 2]]
+    assert req["elements"][2] == {"id": 2, "kind": "point", "name": "red", "owner": ["red_block", ""]}
+    assert req["feedback"] == "branch never reached" and "rejected: branch never reached" in first[1].text
+    assert "- 1: point, green, owner green_block/(whole)" in first[1].text
+    assert "syntax error" in be.calls[1][0][-1].text
+    assert "missing function check_centred" in be.calls[2][0][-1].text
+
+
+def test_coder_gives_up_with_a_specific_error():
+    sg = _subgoal()
+
+    def reject(source: str) -> None:
+        raise ProgramError("line 1: 'while' loops are not allowed")
+
+    coder = MonitorCoder(Scripted(GOOD_PROGRAM, GOOD_PROGRAM))
+    with pytest.raises(VLMOutputError, match=r"after 2 attempt.*while"):
+        coder.write_program(sg, _elements(sg), {}, reject, max_retries=1)
+    with pytest.raises(ConfigError, match="no constraints"):
+        coder.write_program(Subgoal("idle"), [], {}, reject)
+
+
+def test_program_defines_checks():
+    program_defines_checks("def check_a(E, H, t):\n    return True, ''\n", ["a"])
+    with pytest.raises(ProgramError, match="missing function check_b"):
+        program_defines_checks("def check_a(E, H, t):\n    pass\n", ["a", "b"])
+    with pytest.raises(ProgramError, match=r"exactly \(E, H, t\)"):
+        program_defines_checks("def check_a(E, H):\n    pass\n", ["a"])
+    with pytest.raises(ProgramError, match="syntax error at line 1"):
+        program_defines_checks("def (", ["a"])
