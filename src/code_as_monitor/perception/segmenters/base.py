@@ -108,8 +108,11 @@ class ColorSegmenterConfig(SegmenterConfig):
         colors: colour name -> list of HSV boxes ``((h, s, v) lo, (h, s, v) hi)``, OpenCV units
             (hue 0-179). An object name selects the colour it contains as a ``_``-separated token
             ("red_block" -> "red").
+        object_colors: object name -> colour name, for names without a colour token ("zone": "green").
+        flat_objects: objects lying flat on the table (marked zones): no table-plane removal.
         min_height: metres; pixels whose back-projected point is less than this above the dominant
             (table) plane are dropped. Used only when the view has depth.
+        max_depth: metres; depth readings beyond this are ignored.
         plane_inlier: metres; RANSAC inlier distance when fitting the table plane.
         plane_iters: RANSAC iterations.
         plane_samples: how many valid depth pixels the plane fit samples.
@@ -123,7 +126,10 @@ class ColorSegmenterConfig(SegmenterConfig):
     colors: dict[str, list[tuple[tuple[int, int, int], tuple[int, int, int]]]] = field(
         default_factory=lambda: {k: list(v) for k, v in DEFAULT_COLORS.items()}
     )
+    object_colors: dict[str, str] = field(default_factory=dict)
+    flat_objects: tuple[str, ...] = ()
     min_height: float = 0.004
+    max_depth: float = 5.0
     plane_inlier: float = 0.004
     plane_iters: int = 100
     plane_samples: int = 4000
@@ -137,9 +143,12 @@ class ColorSegmenterConfig(SegmenterConfig):
     def __post_init__(self) -> None:
         if not self.colors:
             raise ConfigError("color.colors must name at least one colour")
+        bad = sorted(o for o, col in self.object_colors.items() if col not in self.colors)
+        if bad:
+            raise ConfigError(f"color.object_colors: {', '.join(bad)} map to colours not in color.colors")
         for f in ("min_height", "plane_inlier", "top_band"):
             check_positive("color", f, getattr(self, f), allow_zero=True)
-        for f in ("plane_iters", "plane_samples"):
+        for f in ("plane_iters", "plane_samples", "max_depth"):
             check_positive("color", f, getattr(self, f))
         for f in ("open_px", "close_px", "min_area_px"):
             check_positive("color", f, getattr(self, f), allow_zero=True)
