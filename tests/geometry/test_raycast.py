@@ -87,3 +87,17 @@ def test_scene_truth_and_labels(scene: SyntheticScene) -> None:
     for v in views:
         assert 0.03 < (v.mask_of("box").mean() + v.mask_of("plate").mean() + v.mask_of("rod").mean()) < 0.08
         assert v.mask_of("rod").sum() > 1000
+
+
+def test_element_errors_metrics() -> None:
+    from code_as_monitor.geometry.synthetic import element_errors
+
+    assert element_errors("point", np.array([[0.0, 0.0, 0.003]]), np.zeros((1, 3)))["position_mm"] == pytest.approx(3.0)
+    L = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    e = element_errors("line", L[::-1] + np.array([0.0, 0.002, 0.0]), L)  # reversed order does not matter
+    assert e["direction_deg"] == pytest.approx(0.0, abs=1e-6) and e["ends_mm"] == pytest.approx(2.0)
+    S = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    tilted = S.copy()
+    tilted[:, 2] = S[:, 0] * np.tan(np.deg2rad(2.0))
+    e = element_errors("surface", tilted, S)
+    assert e["normal_deg"] == pytest.approx(2.0)

@@ -189,3 +189,31 @@ def make_scene(
         eye = target + distance * np.array([np.cos(el) * np.cos(a), np.cos(el) * np.sin(a), np.sin(el)])
         cams.append(CameraModel.look_at(name, eye, target, width, height, fov_y_deg))
     return SyntheticScene(objects, cams)
+
+
+def element_errors(kind: ElementKind | str, points: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+    """Errors of an estimated element (k, 3) against its ground truth (world metres).
+
+    Returns, by kind: point ``{"position_mm"}``; line ``{"direction_deg", "ends_mm"}`` (direction
+    unsigned, ends matched in the better order, mean); surface ``{"normal_deg", "corners_mm"}`` (mean
+    distance from each estimated point to the nearest true corner).
+    """
+    kind = ElementKind.parse(kind)
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    T = np.asarray(truth, dtype=np.float64).reshape(-1, 3)
+    if kind is ElementKind.POINT:
+        return {"position_mm": 1000.0 * float(np.linalg.norm(P[0] - T[0]))}
+    if kind is ElementKind.LINE:
+        u, v = P[1] - P[0], T[1] - T[0]
+        cos = abs(float(u @ v)) / max(float(np.linalg.norm(u) * np.linalg.norm(v)), 1e-12)
+        d = np.linalg.norm(P[:, None] - T[None], axis=2)
+        ends = min(d[0, 0] + d[1, 1], d[0, 1] + d[1, 0]) / 2.0
+        return {"direction_deg": float(np.degrees(np.arccos(min(1.0, cos)))), "ends_mm": 1000.0 * float(ends)}
+
+    def _normal(S: np.ndarray) -> np.ndarray:
+        n = np.linalg.svd(S - S.mean(axis=0))[2][-1]
+        return n / np.linalg.norm(n)
+
+    cos = abs(float(_normal(P) @ _normal(T)))
+    corners = np.linalg.norm(P[:, None] - T[None], axis=2).min(axis=1).mean()
+    return {"normal_deg": float(np.degrees(np.arccos(min(1.0, cos)))), "corners_mm": 1000.0 * float(corners)}
