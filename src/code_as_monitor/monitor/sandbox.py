@@ -31,7 +31,7 @@ import numpy as np
 
 import code_as_monitor
 from code_as_monitor.core.constraints import Constraint, Verdict
-from code_as_monitor.core.errors import ProgramError, SandboxError
+from code_as_monitor.core.errors import ProgramError, SandboxError, ShapeMismatchError
 from code_as_monitor.monitor.validate import validate_program
 
 log = logging.getLogger(__name__)
@@ -53,6 +53,35 @@ class _ReplyUnpickler(pickle.Unpickler):
 
 def _loads_reply(data: bytes) -> tuple:
     return _ReplyUnpickler(io.BytesIO(data)).load()
+
+
+def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
+         history_t: np.ndarray | None, t: float) -> tuple[tuple, tuple, bytes]:
+    """Flatten a frame into one float64 buffer plus its layout (cheaper than pickling many arrays).
+
+    Returns:
+        ``((id, k), ...)`` of the elements, ``((id, T, k), ...)`` of the history, and the bytes of
+        ``[E..., H..., H.t]``. ``history=None`` means the current frame alone (T = 1, ``H.t = [t]``).
+    Raises:
+        ShapeMismatchError: points are not (k, 3), histories not (T, k, 3), or ``history_t`` not (T,).
+    """
+    E = [(int(i), np.asarray(p, dtype=np.float64)) for i, p in elements.items()]
+    for i, p in E:
+        if (p.ndim != 2 or p.shape[1] != 3) and p.shape != (3,):
+            raise ShapeMismatchError(f"element {i}: points must be (k, 3), got {p.shape}")
+    E = [(i, p.reshape(-1, 3)) for i, p in E]
+    if history is None:
+        Hs = [(i, p[None]) for i, p in E]
+        Ht = np.array([t], dtype=np.float64)
+    else:
+        Hs = [(int(i), np.asarray(h, dtype=np.float64)) for i, h in history.items()]
+        Ht = np.asarray(history_t if history_t is not None else [t], dtype=np.float64).reshape(-1)
+        for i, h in Hs:
+            if h.ndim != 3 or h.shape[2] != 3 or h.shape[0] != Ht.shape[0]:
+                raise ShapeMismatchError(f"history of element {i} must be (T={Ht.shape[0]}, k, 3), got {h.shape}")
+    parts = [p.ravel() for _, p in E] + [h.ravel() for _, h in Hs] + [Ht]
+    data = np.concatenate(parts).tobytes() if parts else b""
+    return tuple((i, p.shape[0]) for i, p in E), tuple((i, h.shape[0], h.shape[1]) for i, h in Hs), data
 
 
 def _reap(proc: subprocess.Popen) -> None:
@@ -280,16 +309,10 @@ class Sandbox:
             self._progress(0.0)
             if not self._ready:
                 return self._faults("monitor worker is restarting", t)
-        E = {int(i): np.asarray(p, dtype=np.float64) for i, p in elements.items()}
-        if history is None:
-            Hd = {i: p[None] for i, p in E.items()}
-            Ht = np.array([t], dtype=np.float64)
-        else:
-            Hd = {int(i): np.asarray(h, dtype=np.float64) for i, h in history.items()}
-            Ht = np.asarray(history_t if history_t is not None else [t], dtype=np.float64)
+        layout_e, layout_h, data = pack(elements, history, history_t, t)
         self._seq += 1
         try:
-            self._send(("eval", self._seq, E, Hd, Ht, float(t)))
+            self._send(("eval", self._seq, layout_e, layout_h, data, float(t)))
             if not self._conn.poll(max(0.0, deadline - (time.perf_counter() - start))):
                 self._kill_and_replace(f"deadline {deadline * 1e3:.0f} ms exceeded")
                 return self._faults(f"deadline {deadline * 1e3:.0f} ms exceeded", t)

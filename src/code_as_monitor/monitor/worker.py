@@ -7,7 +7,8 @@ pickled tuples (protocol 5). This is the only place a monitor program is compile
 Protocol (requests -> replies):
     worker start                         -> ("ready", pid)
     ("load", source, constraints, cov)   -> ("loaded", n_branches) | ("load_error", message)
-    ("eval", seq, E, H, H_t, t)          -> ("result", seq, [(ok, reason, margin, fault), ...], marks)
+    ("eval", seq, E layout, H layout, float64 bytes, t)
+                                         -> ("result", seq, [(ok, reason, margin, fault), ...], marks)
     ("exit",)                            -> (process exits)
 
 Containment: resource limits (address space, CPU seconds, open files, processes), a restricted
@@ -134,19 +135,30 @@ class _Program:
         self.coverage = coverage
 
 
+def unpack(layout_e: tuple, layout_h: tuple, data: bytes) -> tuple[dict, dict, np.ndarray]:
+    """Rebuild E, H and H.t as read-only views of one float64 buffer (see ``sandbox.pack``)."""
+    flat = np.frombuffer(data, dtype=np.float64)  # bytes are immutable: every view is read-only
+    E: dict[int, np.ndarray] = {}
+    o = 0
+    for i, k in layout_e:
+        E[i] = flat[o:o + 3 * k].reshape(k, 3)
+        o += 3 * k
+    Hd: dict[int, np.ndarray] = {}
+    T = 0
+    for i, T, k in layout_h:
+        Hd[i] = flat[o:o + 3 * T * k].reshape(T, k, 3)
+        o += 3 * T * k
+    return E, Hd, flat[o:o + T]
+
+
 def _evaluate(prog: _Program, E: dict, Hd: dict, Ht: np.ndarray, t: float) -> list[tuple]:
-    for a in E.values():
-        a.flags.writeable = False
-    for a in Hd.values():
-        a.flags.writeable = False
-    Ht.flags.writeable = False
     Em = types.MappingProxyType(E)
     H = History(Hd, Ht)
     out = []
     for fn in prog.checks:
         try:
             out.append(normalise(fn(Em, H, t)))
-        except BaseException as exc:
+        except BaseException as exc:  # a check may raise anything; it is a fault
             out.append(_fault_from(exc))
     return out
 
@@ -189,10 +201,11 @@ def main(fd: int, memory_mb: int, cpu_s: int) -> None:
             return
         kind = msg[0]
         if kind == "eval":
-            _, seq, E, Hd, Ht, t = msg
+            _, seq, layout_e, layout_h, data, t = msg
             if prog is None:
                 send(dumps(("result", seq, None, None), protocol=5))
                 continue
+            E, Hd, Ht = unpack(layout_e, layout_h, data)
             results = _evaluate(prog, E, Hd, Ht, t)
             marks = sorted(prog.marks) if prog.coverage else None
             prog.marks.clear()
