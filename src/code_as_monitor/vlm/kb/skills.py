@@ -72,12 +72,12 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
             f"centred_{obj}_on_{target}",
             f"{nice(obj)} is centred on {nice(target)} within {cen['max_offset'] * 100:.1f} cm; an offset block "
             f"makes the tower topple when the next block lands",
-            "upon", True, cen, [TIP, whole(obj), whole(target)],
+            "upon", True, cen, [whole(obj), whole(target)],
         ),
         _c(
             f"resting_{obj}_on_{target}",
             f"{nice(obj)} rests on {nice(target)}: its centre one block above the centre of {nice(target)}",
-            "upon", False, rest, [TIP, whole(obj), whole(target)],
+            "upon", False, rest, [whole(obj), whole(target)],
         ),
         _c(
             f"released_{obj}",

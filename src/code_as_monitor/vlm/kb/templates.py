@@ -29,7 +29,10 @@ def _q(s: str) -> str:
 
 
 def _head(c: Spec) -> str:
-    legend = "; ".join(f"E[{i}] = {p['name']} ({p['kind']})" for i, p in zip(c["element_ids"], c["parts"]))
+    items = [f"E[{i}] = {p['name']} ({p['kind']})" for i, p in zip(c["element_ids"], c["parts"])]
+    if len(items) > 6:
+        items = [*items[:3], f"... {len(items) - 4} more ...", items[-1]]
+    legend = "; ".join(items)
     return f"def check_{c['id']}(E, H, t):\n    # {c['text']}\n    # {legend}\n"
 
 
@@ -87,8 +90,8 @@ def still(c: Spec) -> str:
 
 
 def centred(c: Spec) -> str:
-    x, tgt = c["element_ids"][1:3]
-    th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    x, tgt = c["element_ids"][:2]
+    th, xn, tn = c["thresholds"], _name(c, 0), _name(c, 1)
     mo = _f(th["max_offset"])
     body = f"""
     off = horizontal_distance(E[{x}], E[{tgt}])
@@ -100,8 +103,8 @@ def centred(c: Spec) -> str:
 
 
 def resting(c: Spec) -> str:
-    x, tgt = c["element_ids"][1:3]
-    th, xn, tn = c["thresholds"], _name(c, 1), _name(c, 2)
+    x, tgt = c["element_ids"][:2]
+    th, xn, tn = c["thresholds"], _name(c, 0), _name(c, 1)
     lo, hi = _f(th["min_dz"]), _f(th["max_dz"])
     body = f"""
     dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
