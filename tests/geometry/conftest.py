@@ -9,8 +9,6 @@ import pytest
 from code_as_monitor.core.observation import View
 from code_as_monitor.geometry.synthetic import SyntheticScene, make_scene
 
-SEEDS = (0, 1, 2, 3)
-
 
 @pytest.fixture(scope="session")
 def scene() -> SyntheticScene:

@@ -14,7 +14,6 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
-from conftest import SEEDS
 
 from code_as_monitor.core.elements import ElementKind, ElementSpec
 from code_as_monitor.core.observation import View
@@ -22,6 +21,7 @@ from code_as_monitor.geometry import build_element, helpers
 from code_as_monitor.geometry.synthetic import ROD_RADIUS, SyntheticScene
 
 DEG = np.pi / 180.0
+SEEDS = (0, 1, 2, 3)
 
 
 def _build(views: list[View], spec: ElementSpec, id: int = 0):
