@@ -132,7 +132,7 @@ class OpenAIBackend:
                 return self._response(resp, messages)
             if attempt + 1 < attempts:
                 delay = self._delay(attempt, retry_exc)
-                log.warning("%s (%s): %s; retry %d/%d in %.2f s", self.where, purpose, last, attempt + 1,
+                log.info("%s (%s): %s; retry %d/%d in %.2f s", self.where, purpose, last, attempt + 1,
                             self.config.max_retries, delay)
                 time.sleep(delay)
         raise VLMError(f"{self.where}: gave up after {attempts} attempt(s): {last}")
