@@ -133,3 +133,16 @@ def test_replies_may_not_carry_objects():
     assert _loads_reply(pickle.dumps(("result", 1, [(True, "r", 1.0, False)], None), protocol=5))[0] == "result"
     with pytest.raises(pickle.UnpicklingError):
         _loads_reply(pickle.dumps(("result", os.system), protocol=5))
+
+
+def test_frame_shapes_are_checked_and_points_normalised(sandbox, constraints, scene):
+    from code_as_monitor.core.errors import ShapeMismatchError
+
+    sandbox.load(GOOD, constraints)
+    flat = {0: scene[0][0], 1: scene[1]}  # a (3,) point is accepted as (1, 3)
+    assert [v.ok for v in sandbox.evaluate(flat, None, None, 0.0)] == [True, True]
+    with pytest.raises(ShapeMismatchError, match="element 1"):
+        sandbox.evaluate({0: scene[0], 1: scene[1][:, :2]}, None, None, 0.0)
+    H = {i: np.repeat(p[None], 4, axis=0) for i, p in scene.items()}
+    with pytest.raises(ShapeMismatchError, match="T=3"):
+        sandbox.evaluate(scene, H, np.zeros(3), 0.0)

@@ -306,7 +306,11 @@ class Sandbox:
         if self._program is None:
             raise SandboxError("Sandbox.evaluate called before load()")
         if not self._ready:
-            self._progress(0.0)
+            try:
+                self._progress(0.0)
+            except ProgramError as exc:  # a replacement that cannot reload the program
+                self._kill_and_replace(str(exc))
+                return self._faults(f"monitor worker could not be restarted: {exc}", t)
             if not self._ready:
                 return self._faults("monitor worker is restarting", t)
         layout_e, layout_h, data = pack(elements, history, history_t, t)

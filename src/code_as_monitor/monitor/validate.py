@@ -58,7 +58,8 @@ BANNED_NAMES: frozenset[str] = frozenset({
 
 NP_ALLOWED: frozenset[str] = frozenset({
     # constants and scalar types
-    "pi", "e", "inf", "nan", "newaxis", "float64", "float32", "int64", "int32", "bool_",
+    "pi", "e", "inf", "nan", "newaxis", "float64", "float32", "int64", "int32", "bool_", "ndarray", "integer",
+    "floating",
     # construction
     "array", "asarray", "zeros", "ones", "zeros_like", "ones_like", "full", "eye", "identity", "arange",
     "linspace", "stack", "vstack", "hstack", "column_stack", "concatenate", "tile", "repeat",
@@ -92,7 +93,7 @@ VALUE_ATTRS: frozenset[str] = frozenset({
     # arrays
     "T", "shape", "ndim", "size", "mean", "sum", "min", "max", "std", "var", "tolist", "copy", "reshape",
     "flatten", "ravel", "item", "any", "all", "argmin", "argmax", "clip", "round", "dot", "cumsum",
-    "squeeze", "transpose", "prod",
+    "squeeze", "transpose", "prod", "astype", "argsort", "nonzero",
     # lists, dicts, strings
     "append", "extend", "items", "keys", "values", "get", "index", "count", "join", "upper", "lower",
     "strip", "startswith", "endswith", "split",
