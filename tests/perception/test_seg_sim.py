@@ -52,3 +52,17 @@ def test_sim_segmenter_needs_seg(view):
 def test_unknown_segmenter_name():
     with pytest.raises(UnknownChoiceError, match="color"):
         SegmenterConfig.from_name("sam9")
+
+
+def test_importing_perception_loads_no_backend_and_no_simulator():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, code_as_monitor.perception\n"
+        "bad = [m for m in ('cv2', 'code_as_monitor.sim', 'code_as_monitor.perception.trackers.lk',"
+        " 'code_as_monitor.perception.segmenters.http') if m in sys.modules]\n"
+        "print(','.join(bad))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""

@@ -1,1 +1,13 @@
-"""perception trackers layer."""
+"""Trackers: the stage registry, streaming interface and factory. Backends (``lk``, ``sim``) are
+imported only by :func:`make_tracker`."""
+
+from code_as_monitor.perception.trackers.base import (
+    LKTrackerConfig,
+    SimTrackerConfig,
+    Tracker,
+    TrackerConfig,
+    TrackResult,
+    make_tracker,
+)
+
+__all__ = ["LKTrackerConfig", "SimTrackerConfig", "TrackResult", "Tracker", "TrackerConfig", "make_tracker"]
