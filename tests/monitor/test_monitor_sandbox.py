@@ -146,3 +146,14 @@ def test_frame_shapes_are_checked_and_points_normalised(sandbox, constraints, sc
     H = {i: np.repeat(p[None], 4, axis=0) for i, p in scene.items()}
     with pytest.raises(ShapeMismatchError, match="T=3"):
         sandbox.evaluate(scene, H, np.zeros(3), 0.0)
+
+
+def test_only_the_worker_executes_generated_code():
+    import code_as_monitor.monitor as pkg
+
+    root = os.path.dirname(pkg.__file__)
+    for name in sorted(os.listdir(root)):
+        if name.endswith(".py") and name != "worker.py":
+            with open(os.path.join(root, name)) as f:
+                text = f.read()
+            assert "exec(" not in text and "eval(" not in text, name
