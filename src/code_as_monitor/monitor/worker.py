@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.geometry.helpers import MONITOR_HELPERS
+from code_as_monitor.monitor.allowlist import SAFE_BUILTINS
 from code_as_monitor.monitor.instrument import MARKER, instrument
 from code_as_monitor.monitor.validate import validate_program
 
@@ -66,12 +67,10 @@ def _noop_print(*args: Any, **kwargs: Any) -> None:
 
 
 def safe_builtins() -> dict[str, Any]:
-    """The tiny builtins table a program sees (its ``__builtins__``)."""
+    """The tiny builtins table a program sees (its ``__builtins__``): :data:`.allowlist.SAFE_BUILTINS`."""
     import builtins
 
-    names = ("abs", "min", "max", "len", "range", "float", "int", "bool", "str", "round", "sum", "any", "all",
-             "enumerate", "zip", "sorted", "reversed", "list", "tuple", "dict", "set", "isinstance", "divmod")
-    table = {n: getattr(builtins, n) for n in names}
+    table = {n: getattr(builtins, n) for n in SAFE_BUILTINS if n not in ("print", "True", "False", "None")}
     table["print"] = _noop_print
     return table
 
