@@ -3,7 +3,7 @@
 Pipeline of :func:`build_element` (all clouds (N, 3), world frame, metres):
 
 1. back-project every view's mask with its depth (:func:`~.backproject.backproject_mask`) and fuse;
-2. voxel-downsample on a fine grid (``fine_voxel_size``: 3 mm, coarser for big parts) so that every
+2. voxel-downsample on a fine grid (``fine_voxel_size``: 4 mm, coarser for big parts) so that every
    later stage sees an evenly spread cloud of bounded size, whatever the image resolution;
 3. statistical outlier removal (:func:`~.fusion.remove_outliers`);
 4. :func:`fit_element_points`: DBSCAN drops the sparse points that survived and splits off debris,
@@ -19,7 +19,11 @@ Pipeline of :func:`build_element` (all clouds (N, 3), world frame, metres):
      normal is oriented to have z >= 0, as :func:`~.helpers.normal` does).
 
 "Cloud point" means a point of the fine voxel-downsampled cloud (the mean of the raw points in one
-3 mm voxel), i.e. a point on the observed surface.
+4 mm voxel), i.e. a point on the observed surface. Every representative is also a *supported* point
+(at least half the typical number of neighbours within 2.5 fine voxels, a DBSCAN core-point test),
+so a stray outlier is never chosen however well it ranks. For a whole solid object the centroid of
+its visible surface lies inside it, so its point element lands on the visible face nearest that
+centroid (which face can change with the viewpoint); a flat part such as a top face is stable.
 
 End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
 """
@@ -44,7 +48,7 @@ VOXEL_DIVISIONS: dict[ElementKind, tuple[int, int, int]] = {
 """Element voxels per axis of the element's own frame (principal axes; for a surface the last axis
 is the plane normal): the occupied space is divided into this many voxels, one representative each."""
 
-MIN_FINE_VOXEL = 0.003
+MIN_FINE_VOXEL = 0.004
 """Metres: the finest voxel of the downsampling grid."""
 FINE_VOXELS_ACROSS = 100
 """The fine voxel is at least the part's robust extent divided by this (bounds the cloud size)."""
@@ -56,7 +60,7 @@ Observation3D = tuple[np.ndarray, np.ndarray, CameraModel]
 
 
 def fine_voxel_size(points: np.ndarray) -> float:
-    """Fine downsampling voxel (metres) for a cloud (N, 3): max(3 mm, robust extent / 100)."""
+    """Fine downsampling voxel (metres) for a cloud (N, 3): max(4 mm, robust extent / 100)."""
     if len(points) < 2:
         return MIN_FINE_VOXEL
     lo, hi = np.percentile(points, [2.0, 98.0], axis=0)

@@ -93,7 +93,7 @@ def remove_outliers(points: np.ndarray, k: int = 16, std_ratio: float = 2.0) -> 
         raise GeometryError(f"remove_outliers: std_ratio must be > 0, got {std_ratio!r}")
     if len(P) <= k:
         return P.copy()
-    d, _ = cKDTree(P).query(P, k=k + 1, workers=-1)
+    d, _ = cKDTree(P).query(P, k=k + 1)
     mean_d = d[:, 1:].mean(axis=1)  # column 0 is the point itself
     thr = mean_d.mean() + std_ratio * mean_d.std()
     return P[mean_d <= thr]
