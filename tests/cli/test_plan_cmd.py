@@ -35,7 +35,7 @@ def test_plan_kb_json_with_code(capsys):
     doc = json.loads(capsys.readouterr().out)
     first = doc["plan"][0]
     assert first["action"] == {"skill": "close_shape", "args": {"rope": "rope", "shape": "square"}}
-    assert "def check_ends_at_opening(E, H, t):" in first["program"]
+    assert "def check_rope_covers_opening(E, H, t):" in first["program"]
     assert doc["plan"][-1]["done"] and doc["usage"]["episode"]["calls_by_purpose"]["monitor_coder"] == 1
 
 

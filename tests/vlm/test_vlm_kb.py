@@ -226,20 +226,34 @@ def test_sweep_plan_and_program(make_elements, run_program):
     assert gen.next_subgoal(SWEEP, IMG, objs, sg, "success").done
 
 
+def rope_state(closed: bool, n: int = 20) -> dict:
+    """Opening along y at x = 0.5 between corner_3 (y=-0.1) and corner_0 (y=+0.1); beads along it or away."""
+    pts = {("square", "corner_0"): [0.5, 0.1, 0.0], ("square", "corner_3"): [0.5, -0.1, 0.0]}
+    for i in range(n):
+        y = (i - (n - 1) / 2) * 0.017 * 0.85
+        pts[("rope", f"bead_{i:02d}")] = [0.515, y, 0.008] if closed else [0.65 + 0.01 * (i % 3), y, 0.008]
+    return pts
+
+
 def test_rope_plan_and_program(make_elements, run_program):
     gen, coder = gen_coder()
-    objs = [*infer_objects(ROPE), "rope/bead_00", "rope/bead_15"]
+    objs = infer_objects(ROPE)
     sg = gen.next_subgoal(ROPE, IMG, objs)
     assert sg.action.to_dict() == {"skill": "close_shape", "args": {"rope": "rope", "shape": "square"}}
     parts = [(p.obj, p.part) for p in sg.constraints[0].parts]
-    assert parts == [("rope", "bead_00"), ("rope", "bead_15"), ("square", "corner_0"), ("square", "corner_3")]
-    closed = {("rope", "bead_00"): [0.51, 0.1, 0.01], ("rope", "bead_15"): [0.49, -0.1, 0.01],
-              ("square", "corner_0"): [0.5, -0.1, 0.0], ("square", "corner_3"): [0.5, 0.1, 0.0]}
-    src, els = program_for(coder, sg, make_elements, closed)
-    assert run_program(src, els)["ends_at_opening"][0] is True
-    closed[("rope", "bead_15")] = [0.4, -0.3, 0.01]
-    assert run_program(src, make_elements(sg, closed))["ends_at_opening"][0] is False
+    assert parts[:3] == [("square", "corner_0"), ("square", "corner_3"), ("rope", "bead_00")]
+    assert parts[-1] == ("rope", "bead_19") and len(parts) == 22
+    src, els = program_for(coder, sg, make_elements, rope_state(True))
+    assert run_program(src, els)["rope_covers_opening"][0] is True
+    assert run_program(src, make_elements(sg, rope_state(False)))["rope_covers_opening"][0] is False
+    lifted = rope_state(True)
+    for i in range(7, 13):  # six middle beads lifted (being carried) leave a gap of about 9 cm
+        lifted[("rope", f"bead_{i:02d}")][2] = 0.05
+    assert run_program(src, make_elements(sg, lifted))["rope_covers_opening"][0] is False
     assert gen.next_subgoal(ROPE, IMG, objs, sg, "success").done
+    # the scene may list the rope's parts; the kb then uses them
+    sg = gen.next_subgoal(ROPE, IMG, [*objs, "rope/bead_00", "rope/bead_01", "rope/bead_02"])
+    assert len(sg.constraints[0].parts) == 5
 
 
 def test_every_subgoal_program_passes_the_static_check():

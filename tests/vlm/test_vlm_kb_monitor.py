@@ -34,8 +34,8 @@ def _sweep_start():
     return pts
 
 
-ROPE_START = {("rope", "bead_00"): [0.3, 0.2, 0.01], ("rope", "bead_19"): [0.3, -0.2, 0.01],
-              ("square", "corner_0"): [0.5, -0.1, 0.0], ("square", "corner_3"): [0.5, 0.1, 0.0]}
+ROPE_START = {("square", "corner_0"): [0.5, 0.1, 0.0], ("square", "corner_3"): [0.5, -0.1, 0.0]}
+ROPE_START.update({("rope", f"bead_{i:02d}"): [0.65, -0.15 + 0.015 * i, 0.008] for i in range(20)})
 
 
 def _cases():

@@ -92,13 +92,13 @@ def _sweep(task: TaskSpec, previous: dict[str, Any] | None, feedback: str | None
 
 
 def _rope(task: TaskSpec, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
-    why = "the opening lies between corner_0 and corner_3; it is enclosed when the rope ends reach them"
+    why = "the opening lies between corner_3 and corner_0; it is enclosed when rope beads lie all along it"
     if previous and previous.get("action"):
         cat = classify(feedback)
         if cat == "success":
             return _done("the opening of the square is enclosed by the rope")
         why = f"the opening is not enclosed yet ({cat}); keep adjusting the rope. " + why
-    cons = skills.close_shape(task.rope, task.shape, task.rope_ends)
+    cons = skills.close_shape(task.rope, task.shape, task.rope_beads)
     text = f"close the opening of {skills.nice(task.shape)} with {skills.nice(task.rope)}"
     return _answer(text, "close_shape", {"rope": task.rope, "shape": task.shape}, cons, why)
 

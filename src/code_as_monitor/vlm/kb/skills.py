@@ -134,20 +134,18 @@ def push_into_region(blocks: tuple[str, ...], region: str) -> tuple[list[dict[st
     return cons, why
 
 
-def close_shape(rope: str, shape: str, ends: tuple[str, str]) -> list[dict[str, Any]]:
-    """``close_shape``: upon, each rope end lies at one corner of the shape's opening."""
-    thr = thresholds("rope_ends")
+def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str, Any]]:
+    """``close_shape``: upon, resting rope beads lie all along the opening between corner_3 and corner_0."""
+    thr = thresholds("rope_cover")
     parts = [
-        {"name": f"rope end {ends[0]}", "obj": rope, "part": ends[0], "kind": "point"},
-        {"name": f"rope end {ends[1]}", "obj": rope, "part": ends[1], "kind": "point"},
         {"name": f"{shape} opening corner_0", "obj": shape, "part": "corner_0", "kind": "point"},
         {"name": f"{shape} opening corner_3", "obj": shape, "part": "corner_3", "kind": "point"},
-    ]
+    ] + [{"name": f"rope {b}", "obj": rope, "part": b, "kind": "point"} for b in beads]
     return [
         _c(
-            "ends_at_opening",
-            f"each end of {nice(rope)} lies within {thr['max_dist'] * 100:.0f} cm of a corner of the opening of "
-            f"{nice(shape)} (corner_0 and corner_3), so the opening is enclosed",
+            "rope_covers_opening",
+            f"{nice(rope)} closes the opening of {nice(shape)}: every point along the opening (corner_3 to "
+            f"corner_0) has a resting rope bead within {thr['max_gap'] * 100:.1f} cm",
             "upon", False, thr, parts,
         )
     ]

@@ -19,7 +19,7 @@ class TaskSpec:
         blocks: for "sweep", the movable blocks.
         region: for "sweep", the target region object.
         rope, shape: for "rope".
-        rope_ends: for "rope", the parts (first and last bead) that must reach the opening.
+        rope_beads: for "rope", its bead parts in order (first and last are the ends).
     """
 
     family: str
@@ -28,7 +28,7 @@ class TaskSpec:
     region: str = ""
     rope: str = ""
     shape: str = ""
-    rope_ends: tuple[str, str] = ("", "")
+    rope_beads: tuple[str, ...] = ()
 
 
 def family_of(instruction: str) -> str | None:
@@ -94,7 +94,7 @@ def understand(instruction: str, objects: list[str], rope_beads: int) -> TaskSpe
         beads = sorted(p for p in scene_parts(objects).get(rope, []) if re.fullmatch(r"bead_\d+", p))
         if not beads:
             beads = [f"bead_{i:02d}" for i in range(rope_beads)]
-        return TaskSpec("rope", rope=rope, shape=shape, rope_ends=(beads[0], beads[-1]))
+        return TaskSpec("rope", rope=rope, shape=shape, rope_beads=tuple(beads))
     return None
 
 

@@ -175,16 +175,23 @@ def capped(c: Spec) -> str:
     return _fn(c, body)
 
 
-def ends(c: Spec) -> str:
-    e0, e1, c0, c1 = c["element_ids"][:4]
-    tol = _f(c["thresholds"]["max_dist"])
+def covers(c: Spec) -> str:
+    c0, c3 = c["element_ids"][:2]
+    beads = tuple(c["element_ids"][2:])
+    th = c["thresholds"]
+    gap, n, mz = _f(th["max_gap"]), int(th["samples"]), _f(th["max_z"])
     body = f"""
-    a = np.max([distance(E[{e0}], E[{c0}]), distance(E[{e1}], E[{c1}])])
-    b = np.max([distance(E[{e0}], E[{c1}]), distance(E[{e1}], E[{c0}])])
-    err = np.min([a, b])
-    if err <= {tol}:
-        return True, "the rope ends reach the opening corners (worst %.3f m)" % err, {tol} - err
-    return False, "the opening of the square is not enclosed: a rope end is %.3f m from its corner" % err, {tol} - err
+    a = centroid(E[{c0}])
+    b = centroid(E[{c3}])
+    s = (np.arange({n}) + 0.5) / {n}
+    samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
+    beads = np.array([centroid(E[i]) for i in {beads!r}])
+    carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
+    d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
+    worst = np.max(np.min(d, axis=1))
+    if worst <= {gap}:
+        return True, "the rope closes the opening (largest gap %.3f m)" % worst, {gap} - worst
+    return False, "the opening of the square is not enclosed: a point of the opening is %.3f m from the nearest resting rope bead" % worst, {gap} - worst
 """
     return _fn(c, body)
 
@@ -212,12 +219,12 @@ def level(c: Spec) -> str:
 TEMPLATES: dict[str, Callable[[Spec], str]] = {
     "held": held, "attached": attached, "still": still, "centred": centred, "resting": resting,
     "released": released, "tower": tower,
-    "reached": reached, "capped": capped, "ends": ends, "upright": upright, "level": level,
+    "reached": reached, "capped": capped, "rope": covers, "upright": upright, "level": level,
 }
 KEYWORDS: tuple[tuple[str, str], ...] = (
     ("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
     ("rests on", "resting"), ("released", "released"),
-    ("still on", "tower"), ("inside", "reached"), ("rope", "ends"), ("upright", "upright"), ("level", "level"),
+    ("still on", "tower"), ("inside", "reached"), ("rope", "rope"), ("upright", "upright"), ("level", "level"),
 )
 
 

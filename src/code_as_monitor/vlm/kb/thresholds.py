@@ -42,8 +42,10 @@ THRESHOLDS: dict[str, dict[str, float]] = {
         # still carry a few blocks in, so halting at the centre would drift toward the upper bound.
         "aim_below_centre": 0.5,  # fraction of the half-band
     },
-    # close_shape: both rope ends at the square's opening corners (enclosed, not a perfect square).
-    "rope_ends": {"max_dist": 0.03},
+    # close_shape: the rope lies along the whole opening (enclosed, not a perfect square): every one of
+    # `samples` points spread along the opening has a resting bead within `max_gap` horizontally
+    # (a gap narrower than a 2.5 cm block cannot let anything through); beads above `max_z` are carried.
+    "rope_cover": {"max_gap": 0.025, "samples": 10, "max_z": 0.03},
     # Growth (no simulator skill uses these yet): keep-upright, keep-level.
     "upright": {"max_tilt": 0.26},  # ~15 degrees
     "level": {"max_tilt": 0.26},  # the paper's pan example: normal within 15 degrees of z
