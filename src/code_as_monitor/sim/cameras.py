@@ -56,8 +56,8 @@ def default_cameras(width: int = 320, height: int = 240) -> list[CameraSpec]:
     return [
         CameraSpec("front", eye=(1.15, 0.0, 0.65), target=(0.45, 0.0, 0.0), width=width, height=height,
                    fov_y_deg=50.0),
-        CameraSpec("top", eye=(0.5, 0.0, 1.05), target=(0.5, 0.0, 0.0), width=width, height=height,
-                   fov_y_deg=45.0),
+        CameraSpec("top", eye=(0.5, 0.0, 1.5), target=(0.5, 0.0, 0.0), width=width, height=height,
+                   fov_y_deg=32.0),
     ]
 
 

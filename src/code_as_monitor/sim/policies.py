@@ -213,7 +213,9 @@ class ScriptedPolicy:
             far = pts[int(np.argmax(np.linalg.norm(pts - center, axis=1)))]
             d = center - far
             d = d / max(np.linalg.norm(d), 1e-9)
-            start, end = far - d * 0.035, center - d * 0.02
+            # stop once the pushed block is a few cm past the region's entry, so the pile stays inside
+            entry = task.region_entry(self.world, region, far, d)
+            start, end = far - d * 0.035, entry + d * 0.03
             yaw = float(np.arctan2(d[1], d[0]))
             yield from self._lift(0.08)
             yield from self.mover.move([*start, 0.08], yaw)

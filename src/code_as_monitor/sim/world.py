@@ -72,7 +72,7 @@ class World:
         self.client = c = pb.connect(pb.DIRECT)
         pb.resetSimulation(physicsClientId=c)
         pb.setGravity(0, 0, -9.81, physicsClientId=c)
-        pb.setPhysicsEngineParameter(fixedTimeStep=1.0 / cfg.physics_hz, numSolverIterations=50,
+        pb.setPhysicsEngineParameter(fixedTimeStep=1.0 / cfg.physics_hz, numSolverIterations=20,
                                      deterministicOverlappingPairs=1, physicsClientId=c)
         self.substeps = cfg.physics_hz // cfg.control_hz
         self.dt = 1.0 / cfg.control_hz
@@ -85,13 +85,13 @@ class World:
         self._body_name: dict[int, str] = {}
         self._seg_labels: dict[int, tuple[str, str]] | None = None
         self._next_frame_tick = 0
-        table = pb.loadURDF(str(ASSETS / "table.urdf"), [0, 0, 0], useFixedBase=True, physicsClientId=c)
+        self.renderer = cfg.renderer  # the plugin must load before any body so it sees every visual
+        if cfg.renderer == "egl" and not load_egl(c):
+            self.renderer = "tiny"
+        table = pb.loadURDF(str(ASSETS / "table.urdf"), [0.3, 0, 0], useFixedBase=True, physicsClientId=c)
         pb.changeDynamics(table, -1, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
         self.add_object("table", [table], whole=[(table, -1)])
         self.robot = Panda(c, ee_kind=ee)
-        self.renderer = cfg.renderer
-        if cfg.renderer == "egl" and not load_egl(c):
-            self.renderer = "tiny"
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
         self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
 

@@ -69,8 +69,8 @@ class Task:
     def default_plan(self) -> list[Action]:
         raise NotImplementedError
 
-    def disturbances(self) -> list[Any]:
-        """Disturbance objects configured for this task (default: none)."""
+    def disturbances(self, seed: int = 0) -> list[Any]:
+        """Disturbance objects configured for this task, seeded from ``seed`` (default: none)."""
         return []
 
     def settle_after_plan(self) -> bool:
