@@ -59,10 +59,7 @@ def run_open_loop(name: str, seed: int = 0, world_config: WorldConfig | None = N
             policy.start(action)
             while not policy.done and world.t < limit - 1e-9:
                 tick()
-        if env.task.settle_after_plan():
-            end = min(limit, world.t + SETTLE_S)
-        else:
-            end = limit
+        end = min(limit, world.t + SETTLE_S) if env.task.settle_after_plan() else limit
         while world.t < end - 1e-9:
             tick()
         res = env.evaluate()

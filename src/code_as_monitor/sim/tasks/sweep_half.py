@@ -134,7 +134,7 @@ class SweepHalf(Task):
         for k in range(2):
             if abs(d[k]) < 1e-9:
                 continue
-            s1, s2 = sorted(((c[k] - h - start[k]) / d[k], (c[k] + h - start[k]) / d[k]))
+            s1, _ = sorted(((c[k] - h - start[k]) / d[k], (c[k] + h - start[k]) / d[k]))
             s_in = max(s_in, s1)
         return np.asarray(start, dtype=float) + s_in * np.asarray(d, dtype=float)
 
