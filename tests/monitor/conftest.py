@@ -8,21 +8,6 @@ import pytest
 from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.monitor.sandbox import Sandbox
 
-GOOD = '''
-"""A well-behaved program: the block stays near the tip while carried; it ends up lifted."""
-
-def check_a(E, H, t):
-    d = distance(E[0], E[1])
-    if d > 0.05:
-        return False, f"block is {d:.3f} m from the tip", 0.05 - d
-    return True, "block attached", 0.05 - d
-
-
-def check_b(E, H, t):
-    h = E[1][:, 2].mean()
-    return bool(h > 0.1), f"block height {h:.2f} m"
-'''
-
 
 @pytest.fixture
 def constraints() -> list[Constraint]:

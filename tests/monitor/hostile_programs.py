@@ -9,6 +9,22 @@ Every program defines a well-behaved ``check_b`` so the tests can see that other
 
 from __future__ import annotations
 
+GOOD = '''
+"""A well-behaved program: the block stays near the tip while carried; it ends up lifted."""
+
+def check_a(E, H, t):
+    d = distance(E[0], E[1])
+    if d > 0.05:
+        return False, f"block is {d:.3f} m from the tip", 0.05 - d
+    return True, "block attached", 0.05 - d
+
+
+def check_b(E, H, t):
+    h = E[1][:, 2].mean()
+    return bool(h > 0.1), f"block height {h:.2f} m"
+'''
+
+
 GOOD_B = '''
 def check_b(E, H, t):
     return True, "fine", 1.0

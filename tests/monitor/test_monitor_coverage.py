@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import GOOD
+from hostile_programs import GOOD
 
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.coverage import CoverageError, check_path_coverage

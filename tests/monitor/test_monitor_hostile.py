@@ -4,8 +4,7 @@ sandbox keeps evaluating a good program correctly afterwards."""
 from __future__ import annotations
 
 import pytest
-from conftest import GOOD
-from hostile_programs import CORPUS
+from hostile_programs import CORPUS, GOOD
 
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.validate import validate_program

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from conftest import GOOD
+from hostile_programs import GOOD
 
 from code_as_monitor.core.constraints import Phase, Verdict
 from code_as_monitor.core.errors import ProgramError, SandboxError

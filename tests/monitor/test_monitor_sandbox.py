@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import GOOD
+from hostile_programs import GOOD
 
 from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.core.errors import ProgramError, SandboxError

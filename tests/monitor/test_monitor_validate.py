@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 
 import pytest
-from conftest import GOOD
+from hostile_programs import GOOD
 
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.errors import ProgramError
