@@ -239,6 +239,10 @@ class Sandbox:
     def _start_failed(self, why: str) -> None:
         self._start_failures += 1
         if self._start_failures >= MAX_START_FAILURES:
+            if self._proc is not None:
+                _reap(self._proc)
+            if self._conn is not None:
+                self._conn.close()
             self._proc, self._conn, self._ready = None, None, False
             raise SandboxError(f"sandbox worker failed to start {self._start_failures} times: {why}")
         self._kill_and_replace(why)
@@ -267,7 +271,10 @@ class Sandbox:
             ProgramError: the program is rejected, fails to compile, or its module level fails/overruns.
         """
         validate_program(source, constraints)
-        self._wait_ready(self.start_timeout_s)
+        try:
+            self._wait_ready(self.start_timeout_s)
+        except ProgramError:  # a replacement could not reload the previous program: drop it
+            self._program, self._awaiting, self._ready = None, [], True
         self._program = (source, list(constraints), coverage)
         self._constraints = list(constraints)
         self._send(("load", source, list(constraints), coverage))
