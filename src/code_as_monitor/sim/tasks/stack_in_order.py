@@ -133,7 +133,7 @@ class StackInOrder(Task):
                 pos = world.position(name)
                 world.events.log(world.t, "tower_collapsed", name, pos=pos.tolist(), from_z=self._stacked[name])
                 del self._stacked[name]
-            elif z > BLOCK * 1.25 and v < 0.01:
+            elif z > BLOCK * 1.25 and v < 0.05:  # resting or just released on top of another block
                 self._stacked[name] = max(z, self._stacked.get(name, 0.0))
 
     def evaluate(self, world) -> TaskResult:
