@@ -26,6 +26,9 @@ from code_as_monitor.core.policy import Policy
 
 log = logging.getLogger(__name__)
 
+SUCCESS_FEEDBACK = "success"
+"""Feedback after a completed subgoal (the same token as ``vlm.schemas.SUCCESS_FEEDBACK``)."""
+
 
 class Environment(Protocol):
     """What the agent needs from the world (a simulator or a robot driver)."""
@@ -203,7 +206,8 @@ class Agent:
             self.emit("subgoal_end", t=env.t, **record.to_dict())
             previous = subgoal
             if record.outcome == "success":
-                feedback = f"success: {record.reason}" if record.reason else "success"
+                # The planner's success token; the upon reasons are in the event log.
+                feedback = SUCCESS_FEEDBACK
             else:
                 feedback = f"failure: {record.reason}"
                 ep.replans += 1

@@ -1,1 +1,1 @@
-"""bench layer."""
+"""Layer 7: experiment runners, executors, metrics and reports."""

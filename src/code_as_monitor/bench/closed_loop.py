@@ -1,0 +1,174 @@
+"""One closed-loop (Code-as-Monitor) episode in the simulator, with every artefact written to a run dir.
+
+This is where the layers meet: the simulator provides the world and the open-loop policy; the agent
+(planner, painter, monitor) sees them only through ``World.observe``/``World.t`` and the policy
+protocol.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.run_io import EventLog, write_json
+
+log = logging.getLogger(__name__)
+
+EventCallback = Callable[[dict[str, Any]], None]
+
+
+@dataclass
+class ClosedLoopConfig:
+    """A closed-loop episode.
+
+    Attributes:
+        task: registered simulator task id.
+        seed: episode seed (scene randomisation and disturbances).
+        task_params: task config fields, e.g. ``{"p": 0.3}`` or ``{"q": 2.0}``.
+        backend: VLM backend name (``kb`` offline, ``openai``, ``replay``) and its options.
+        segmenter, tracker: registered perception choices and their options.
+        width, height, camera_hz: camera settings (the monitor runs at ``camera_hz``).
+        video: write ``episode.mp4``.
+        max_replans: failed subgoals allowed.
+    """
+
+    task: str = "stack-in-order"
+    seed: int = 0
+    task_params: dict[str, Any] = field(default_factory=dict)
+    backend: str = "kb"
+    backend_options: dict[str, Any] = field(default_factory=dict)
+    segmenter: str = "sim"
+    segmenter_options: dict[str, Any] = field(default_factory=dict)
+    tracker: str = "lk"
+    tracker_options: dict[str, Any] = field(default_factory=dict)
+    width: int = 320
+    height: int = 240
+    camera_hz: float = 10.0
+    video: bool = True
+    max_replans: int = 8
+
+    def __post_init__(self) -> None:
+        if self.width < 32 or self.height < 32:
+            raise ConfigError(f"camera size must be at least 32x32, got {self.width}x{self.height}")
+        if self.camera_hz <= 0:
+            raise ConfigError(f"camera_hz must be > 0, got {self.camera_hz!r}")
+
+
+def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
+    """Let the world run on (the policy halted) until the task's evaluation time, then evaluate."""
+    from code_as_monitor.sim.episode import SETTLE_S
+
+    world, limit = env.world, env.task.config.time_limit
+    end = min(limit, world.t + SETTLE_S) if env.task.settle_after_plan() else limit
+    while world.t < end - 1e-9:
+        env.policy.step()
+    return env.evaluate()
+
+
+def run_closed_loop(
+    cfg: ClosedLoopConfig, run_dir: Path | None = None, on_event: EventCallback | None = None
+) -> dict[str, Any]:
+    """Run one Code-as-Monitor episode; returns the summary (also written to ``run_dir/summary.json``).
+
+    ``run_dir`` (created by the caller, fresh) receives ``events.jsonl`` (agent events, flushed as
+    written), ``ground_truth.jsonl`` (the simulator's disturbance/consequence log), ``episode.mp4``,
+    ``prompts/`` and ``programs/``.
+    """
+    import cv2
+
+    from code_as_monitor.agent.loop import Agent, AgentConfig
+    from code_as_monitor.monitor.runtime import MonitorRuntime
+    from code_as_monitor.painter import Painter
+    from code_as_monitor.perception import (
+        ElementHistory,
+        SegmenterConfig,
+        TrackerConfig,
+        make_segmenter,
+        make_tracker,
+    )
+    from code_as_monitor.planning.coder import MonitorCoder
+    from code_as_monitor.planning.generator import ConstraintGenerator
+    from code_as_monitor.sim.env import make_env
+    from code_as_monitor.sim.world import WorldConfig
+    from code_as_monitor.viz.video import VideoWriter, compose_frame
+    from code_as_monitor.vlm import VLMBackendConfig, make_backend
+
+    wall0 = time.perf_counter()
+    backend = make_backend(VLMBackendConfig.from_name(cfg.backend, **cfg.backend_options))
+    generator = ConstraintGenerator(backend)
+    coder = MonitorCoder(backend, usage=generator.usage)
+    painter = Painter(make_segmenter(SegmenterConfig.from_name(cfg.segmenter, **cfg.segmenter_options)))
+    tracker = make_tracker(TrackerConfig.from_name(cfg.tracker, **cfg.tracker_options))
+    world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz)
+
+    events = EventLog(run_dir / "events.jsonl") if run_dir is not None else None
+    video = VideoWriter(run_dir / "episode.mp4", fps=cfg.camera_hz) if (run_dir is not None and cfg.video) else None
+
+    def emit(kind: str, **fields: Any) -> None:
+        ev = events.write(kind, **fields) if events is not None else {"kind": kind, **fields}
+        if on_event is not None:
+            on_event(ev)
+
+    def on_frame(obs, elements, stale, verdicts, banner) -> None:
+        if video is not None:
+            video.write(compose_frame(obs, elements, stale, verdicts, banner))
+
+    def on_prompt(index: int, subgoal: Any, images: dict[str, np.ndarray], source: str) -> None:
+        if run_dir is None:
+            return
+        (run_dir / "prompts").mkdir(exist_ok=True)
+        (run_dir / "programs").mkdir(exist_ok=True)
+        for view, img in images.items():
+            cv2.imwrite(str(run_dir / "prompts" / f"subgoal{index:02d}_{view}.png"), img[:, :, ::-1])
+        header = f"# subgoal {index}: {subgoal.text}\n"
+        (run_dir / "programs" / f"subgoal{index:02d}.py").write_text(header + source, encoding="utf-8")
+
+    runtime = MonitorRuntime()
+    try:
+        with make_env(cfg.task, seed=cfg.seed, world_config=world_cfg, **cfg.task_params) as env:
+            if run_dir is not None:
+                env.world.events.open(run_dir / "ground_truth.jsonl")
+            agent = Agent(
+                generator, coder, painter, tracker, runtime, ElementHistory,
+                AgentConfig(frame_hz=cfg.camera_hz, max_replans=cfg.max_replans,
+                            time_limit_s=env.task.config.time_limit),
+                on_event=emit, on_frame=on_frame, on_prompt=on_prompt,
+            )
+            episode = agent.run(env.instruction, env.world, env.policy)
+            result = _settle_and_evaluate(env, episode.stop_reason)
+            gt_events = list(env.world.events.events)
+            env.world.events.close()
+            t_end = env.world.t
+    finally:
+        runtime.close()
+        if video is not None:
+            video.close()
+    summary: dict[str, Any] = {
+        "method": "cam",
+        "config": asdict(cfg),
+        "task": cfg.task,
+        "seed": cfg.seed,
+        "success": bool(result.success),
+        "reason": result.reason,
+        "sim_time_s": round(float(episode.t_end), 3),
+        "sim_time_end_s": round(float(t_end), 3),
+        "wall_time_s": round(time.perf_counter() - wall0, 2),
+        "episode": episode.to_dict(),
+        "vlm": generator.usage.to_dict(),
+        "ground_truth_events": gt_events,
+        "task_info": result.info,
+    }
+    emit("outcome", success=summary["success"], reason=result.reason, sim_time_s=summary["sim_time_s"],
+         vlm_calls=generator.usage.calls, vlm=generator.usage.episode())
+    if events is not None:
+        events.close()
+    if run_dir is not None:
+        write_json(run_dir / "summary.json", summary)
+    return summary
