@@ -29,6 +29,7 @@ from code_as_monitor.core.errors import SimError
 from code_as_monitor.sim.motion import PUSH_SPEED, SLOW_SPEED, Mover, wrap_angle
 from code_as_monitor.sim.world import World
 
+PARK = (0.32, -0.33, 0.30)  # tip position out of the cameras' way after a placement, metres
 CARRY_Z = 0.16  # tip height for carrying above the scene, metres
 APPROACH = 0.06  # clearance above a surface before the slow descent, metres
 PUSH_Z = 0.01  # spatula tip height during a stroke, metres
@@ -200,6 +201,7 @@ class ScriptedPolicy:
         self._suction_off()
         yield from self.mover.wait(0.1)
         yield from self.mover.move([*dest, carry], speed=SLOW_SPEED * 2)
+        yield from self.mover.move(PARK)  # retreat so the top view sees the result
 
     def _push_into_region(self, region: str) -> Iterator[None]:
         task = self.task

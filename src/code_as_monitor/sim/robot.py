@@ -13,7 +13,7 @@ from code_as_monitor.sim.end_effectors import EndEffector, make_end_effector
 ARM_JOINTS = list(range(7))
 FINGER_JOINTS = (9, 10)
 GRASP_LINK = 11  # panda_grasptarget
-HOME_Q = [0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]
+HOME_Q = [-0.8, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]  # parked to the side: cameras see the workspace
 ARM_FORCES = [240.0, 240.0, 240.0, 240.0, 60.0, 60.0, 60.0]
 
 
