@@ -223,3 +223,23 @@ def test_time_limit_stops_a_subgoal() -> None:
 def test_bad_config_names_the_field(field_: str, value: float) -> None:
     with pytest.raises(ConfigError, match=field_):
         AgentConfig(**{field_: value})
+
+
+def test_checks_on_stale_elements_give_no_verdict() -> None:
+    """A drop seen only through a stale element must not raise an alarm; once fresh again, it does."""
+    w = World(t_drop=0.1)
+    planner = Planner([_subgoal("move block")])
+    agent, events = _agent(w, planner)
+
+    stale_until = 0.5
+    real_step = Tracker.step
+
+    def step(self, obs):
+        tr = real_step(self, obs)
+        tr.stale = {i: np.array([obs.t < stale_until]) for i in tr.points}
+        return tr
+
+    agent.tracker.step = step.__get__(agent.tracker)
+    ep = agent.run("move the block", w, MovePolicy(w))
+    assert ep.alarms and ep.alarms[0].t >= stale_until
+    assert any(k == "verdicts_unknown" and f["constraints"] for k, f in events)

@@ -278,6 +278,8 @@ class Agent:
         next_frame = env.t + period
         upon = subgoal.upon()
         upon_streak = 0
+        uses = {c.id: set(c.element_ids) for c in subgoal.constraints}
+        unknown_before: set[str] = set()
         policy.start(subgoal.action)  # type: ignore[arg-type]
         self.emit("policy_start", t=env.t, action=subgoal.action.to_dict() if subgoal.action else None)
         while True:
@@ -291,6 +293,14 @@ class Agent:
             except PerceptionError as exc:
                 policy.halt()
                 return rec("error", f"perception failed: {exc}", attempts["n"])
+            # A check that reads a stale element (lost by the tracker, not yet re-acquired) has no
+            # verdict this frame: it can neither raise an alarm nor complete the subgoal.
+            stale_ids = {i for i, st in view_state[2].items() if np.any(st)}
+            unknown = {cid for cid, ids in uses.items() if ids & stale_ids}
+            if unknown != unknown_before:
+                self.emit("verdicts_unknown", t=env.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))
+                unknown_before = unknown
+            verdicts = [v for v in verdicts if v.constraint_id not in unknown]
             violated = [v for v in verdicts if v.phase is Phase.DURING and not v.ok and not v.fault]
             upon_v = [v for v in verdicts if v.phase is Phase.UPON and not v.fault]
             faults = [v for v in verdicts if v.fault]

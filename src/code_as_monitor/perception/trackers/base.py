@@ -82,6 +82,15 @@ class LKTrackerConfig(TrackerConfig):
         rigid_max_residual: metres; the fit is rejected (per-point estimates kept) above this RMS.
         reacquire_after: frames an element may have a stale point before the reacquire hook runs
             (and the wait before retrying after the hook found nothing).
+        anchors: tracked pixels per element point and view. The first is the point's own pixel (or the
+            nearest one seeing it); the others are surface pixels within ``anchor_radius`` of the point
+            in 3-D, each with its own offset. The point's estimate is the median over its anchors, so
+            it survives when its own pixel is covered (a suction cup over a block's top face). 1 = the
+            point's own pixel only.
+        anchor_radius: metres; how far from the point (3-D) extra anchors may lie on the surface.
+        anchor_search_px: radius in pixels of the window searched for extra anchors.
+        reseed_below: re-seed a point in a view when fewer than this fraction of its anchors are
+            still tracked there.
     """
 
     window: int = 21
@@ -102,8 +111,16 @@ class LKTrackerConfig(TrackerConfig):
     rigid_min_points: int = 3
     rigid_max_residual: float = 0.01
     reacquire_after: int = 5
+    anchors: int = 6
+    anchor_radius: float = 0.025
+    anchor_search_px: int = 14
+    reseed_below: float = 0.5
 
     def __post_init__(self) -> None:
+        if self.anchors < 1:
+            raise ConfigError(f"lk.anchors must be >= 1, got {self.anchors!r}")
+        if not 0.0 <= self.reseed_below <= 1.0:
+            raise ConfigError(f"lk.reseed_below must be in [0, 1], got {self.reseed_below!r}")
         if self.window < 5 or self.window % 2 == 0:
             raise ConfigError(f"lk.window must be an odd number >= 5, got {self.window!r}")
         if self.fusion not in ("mean", "median"):

@@ -13,6 +13,13 @@ Per frame and per view (all element points of a view in one call):
 3. surviving pixels are lifted with ``geometry.backproject_pixels`` and shifted by the per-view
    *anchor offset* (below) to give that view's estimate of the 3-D point.
 
+Anchors: each element point is followed through ``anchors`` tracked pixels per view: its own pixel
+and surface pixels within ``anchor_radius`` (3-D) of it, each carrying its world-frame offset to the
+point. A view's estimate of the point is the median over its surviving anchors, so the point keeps
+being observed while its own pixel is covered (a suction cup sitting on a block's top face) as long
+as some of the object's surface near it is seen. A point is re-seeded in a view when fewer than
+``reseed_below`` of its anchors survive there.
+
 Fusion: the mean (or median) of the views' estimates. A point no view observed is *stale*: it keeps
 its last position. For line and surface elements with ``rigid`` on, a rigid transform (Kabsch) from
 the element's reference shape (its points at reset / re-acquisition) to the fused estimates of its
@@ -98,6 +105,7 @@ class LKTracker(Tracker):
         c = self.config
         self._win = (c.window, c.window)
         self._criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, c.iterations, c.epsilon)
+        self._K = c.anchors
         self._elements: dict[int, Element] = {}
         self._anchors: dict[int, KinematicAnchor] = {}
         self._views: dict[str, _ViewState] = {}
@@ -111,6 +119,11 @@ class LKTracker(Tracker):
         du, dv = np.meshgrid(offs, offs)
         order = np.argsort(du.ravel() ** 2 + dv.ravel() ** 2, kind="stable")
         self._search = np.stack([du.ravel()[order], dv.ravel()[order]], axis=1).astype(np.float64)
+        ra = c.anchor_search_px
+        step = max(1, ra // 5)
+        offs = np.arange(-ra, ra + 1, step)
+        du, dv = np.meshgrid(offs, offs)
+        self._ring = np.stack([du.ravel(), dv.ravel()], axis=1).astype(np.float64)
 
     # --- public API -------------------------------------------------------------------------------
     def reset(self, obs: Observation, elements: list[Element]) -> None:
@@ -126,38 +139,40 @@ class LKTracker(Tracker):
         self._elements = {el.id: el for el in elements}
         self._layout(tracked)
         for name, view in obs.views.items():
-            st = self._views[name] = _ViewState(len(self.P))
+            st = self._views[name] = _ViewState(len(self.P) * self._K)
             st.gray = self._gray(view)
             self._seed(view, st, np.ones(len(self.P), dtype=bool))
             self._rekey(st)
 
     def step(self, obs: Observation) -> TrackResult:
         c = self.config
-        m = len(self.P)
+        m, K = len(self.P), self._K
         for name in [n for n in self._views if n not in obs.views]:
             del self._views[name]  # a view that dropped out is re-seeded when it returns
-        est = np.full((len(obs.views), m, 3), np.nan)
+        est = np.full((len(obs.views), m * K, 3), np.nan)  # per view, per anchor slot
         for k, (name, view) in enumerate(obs.views.items()):
             gray = self._gray(view)
             st = self._views.get(name)
             if st is None:
-                st = self._views[name] = _ViewState(m)
+                st = self._views[name] = _ViewState(m * K)
             st.gray = gray
             if st.active.any() and st.key is not None:
                 self._track(view, st, est[k])
-        observed = np.isfinite(est[:, :, 0])  # (V, M)
+        per_view = _nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
+        observed = np.isfinite(per_view[:, :, 0])  # (V, M)
         ok = observed.any(axis=0)
         if c.fusion == "median":
             fused = np.full((m, 3), np.nan)
-            fused[ok] = np.nanmedian(est[:, ok], axis=0)
+            fused[ok] = np.nanmedian(per_view[:, ok], axis=0)
         else:
-            fused = _nanmean(est, observed)
+            fused = _nanmean(per_view, observed)
         self._update_points(fused, ok)
         visible = {eid: int(observed[:, sl].any(axis=1).sum()) for eid, sl in self._slices.items()}
         fresh = ~self.stale
         for name, view in obs.views.items():
             st = self._views[name]
-            self._seed(view, st, fresh & ~st.active)
+            alive = st.active.reshape(m, K).sum(axis=1) if m else np.zeros(0, dtype=int)
+            self._seed(view, st, fresh & (alive < max(1.0, c.reseed_below * K)))
             if st.rekey:
                 self._rekey(st)
         self._maybe_reacquire(obs)
@@ -226,11 +241,15 @@ class LKTracker(Tracker):
             st.rekey = True
 
     def _seed(self, view: View, st: _ViewState, want: np.ndarray) -> None:
-        """Start tracking the points ``want`` (M,) bool in ``view`` where they are visible."""
+        """Start tracking the points ``want`` (M,) bool in ``view`` where they are visible.
+
+        Slot 0 of a point is its own pixel (or the nearest within ``seed_search_px`` seeing it); the
+        other slots are surface pixels within ``anchor_radius`` of it, spread over the search window.
+        """
         idx = np.flatnonzero(want)
         if idx.size == 0:
             return
-        c = self.config
+        c, K = self.config, self._K
         P = self.P[idx]
         uv0, zp = view.camera.project(P)
         n, s = len(idx), len(self._search)
@@ -247,14 +266,47 @@ class LKTracker(Tracker):
         near = dist[np.arange(n), best] <= c.occlusion_tol
         pick = np.where(exact, 0, best)
         ok = exact | near
-        sel = idx[ok]
+        slots = idx * K
+        # Clear every slot of the points being (re)seeded.
+        for j in range(K):
+            st.active[slots + j] = False
+        sel = slots[ok]
         rows = np.flatnonzero(ok)
         anchor_lift = lifted[rows, pick[rows]]
         st.uv[sel] = cand.reshape(n, s, 2)[rows, pick[rows]]
         st.offset[sel] = P[rows] - anchor_lift
         st.z[sel] = self._cam_z(view, anchor_lift)
         st.active[sel] = True
-        st.rekey |= bool(sel.size)
+        seeded = bool(sel.size)
+        if K > 1:
+            seeded |= self._seed_extra(view, st, idx, P, uv0, zp)
+        st.rekey |= seeded
+
+    def _seed_extra(self, view: View, st: _ViewState, idx: np.ndarray, P: np.ndarray, uv0: np.ndarray,
+                    zp: np.ndarray) -> bool:
+        """Fill slots 1..K-1 of points ``idx`` with surface pixels within ``anchor_radius`` of them."""
+        c, K = self.config, self._K
+        n, r = len(idx), len(self._ring)
+        cand = (uv0[:, None, :] + self._ring[None]).reshape(-1, 2)
+        lifted, valid = self._lift(cand, view.depth, view.camera, c.max_depth)
+        valid &= self._inside(view, cand) & np.repeat(zp > 0, r)
+        lifted = lifted.reshape(n, r, 3)
+        valid = valid.reshape(n, r)
+        dist = np.where(valid, np.linalg.norm(lifted - P[:, None], axis=2), np.inf)
+        any_seeded = False
+        for row in range(n):
+            good = np.flatnonzero(dist[row] <= c.anchor_radius)
+            if good.size == 0:
+                continue
+            take = good[np.unique(np.linspace(0, good.size - 1, min(K - 1, good.size)).round().astype(int))]
+            base = idx[row] * K + 1
+            sl = np.arange(base, base + len(take))
+            st.uv[sl] = cand.reshape(n, r, 2)[row, take]
+            st.offset[sl] = P[row] - lifted[row, take]
+            st.z[sl] = self._cam_z(view, lifted[row, take])
+            st.active[sl] = True
+            any_seeded = True
+        return any_seeded
 
     def _update_points(self, fused: np.ndarray, ok: np.ndarray) -> None:
         c = self.config
@@ -301,12 +353,14 @@ class LKTracker(Tracker):
             self._layout(tracked)
             self._stale_frames = frames
             self._views = {}
+            K = self._K
             for name, ost in old_views.items():
-                st = self._views[name] = _ViewState(len(self.P))
+                st = self._views[name] = _ViewState(len(self.P) * K)
                 st.gray, st.key, st.key_uv[:] = ost.gray, ost.key, 0.0
-                for eid, osl in old_slices.items():
+                for eid, o in old_slices.items():
                     if eid != new.id:
-                        nsl = self._slices[eid]
+                        nsl = _slots(self._slices[eid], K)
+                        osl = _slots(o, K)
                         st.uv[nsl], st.active[nsl], st.key_uv[nsl] = ost.uv[osl], ost.active[osl], ost.key_uv[osl]
                         st.offset[nsl], st.z[nsl] = ost.offset[osl], ost.z[osl]
             for eid, osl in old_slices.items():
@@ -323,7 +377,7 @@ class LKTracker(Tracker):
         want[sl] = True
         for name, view in obs.views.items():
             st = self._views[name]
-            st.active[sl] = False
+            st.active[_slots(sl, self._K)] = False
             self._seed(view, st, want)
             if st.rekey and st.gray is not None:
                 self._rekey(st)  # the new anchors' templates come from this frame
@@ -343,6 +397,21 @@ class LKTracker(Tracker):
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
         return TrackResult(obs.t, points, stale, visible)
+
+
+def _slots(sl: slice, k: int) -> slice:
+    """The anchor-slot slice of the point slice ``sl`` with ``k`` anchors per point."""
+    return slice(sl.start * k, sl.stop * k)
+
+
+def _nanmedian_axis(a: np.ndarray, axis: int) -> np.ndarray:
+    """``np.nanmedian`` without the all-NaN warning (all-NaN slices give NaN)."""
+    with np.errstate(invalid="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return np.nanmedian(a, axis=axis)
 
 
 def _nanmean(est: np.ndarray, observed: np.ndarray) -> np.ndarray:
