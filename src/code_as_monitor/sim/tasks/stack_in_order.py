@@ -10,12 +10,17 @@ Success: red on the table, green resting on red and blue on green, each centred 
 (2 cm) horizontally of the one below and at the right height (+-1 cm), nothing held, within
 ``time_limit`` (70 s) of sim time.
 
-Disturbances (config fields): ``p`` drop probability per drop decision (decision every
-``1 / drop_check_hz`` s of holding; the default 1 Hz gives about two decisions per carry, so the
-open-loop success is about (1 - p)^4 as in the paper: 57 % at p = 0.15, 22 % at p = 0.3);
-``q`` placement noise in cm (offset of uniform direction, magnitude uniform in [0, q] cm).
-Physics: block friction 0.5, restitution 0, 0.1 kg; a block placed more than ~2 cm off-centre
-overhangs its centre of mass and topples, and offsets compound over two placements.
+Disturbances (config fields): ``p`` drop probability per drop decision. In CLIPort a "step" is a
+primitive-level action step, not a physics tick, so a decision is taken every ``1 / drop_check_hz``
+s of holding; the default 2 Hz gives about two decisions per ~1.2 s carry (four per episode; a drop
+during the final descent usually still lands on the tower). ``q``: placement noise in cm (offset of
+uniform direction, magnitude uniform in [0, q] cm). ``xy_tol_cm`` (1 cm, CLIPort's position
+tolerance ``pos_eps``) is how far a block may sit off the centre of the one below.
+Physics: block friction 0.5, restitution 0, 0.1 kg, 20 solver iterations; a block placed more than
+~2 cm off-centre overhangs its centre of mass and topples, offsets compound over two placements.
+Measured open-loop success (benchmarks/open_loop_success.py, 5 seeds x 12 episodes), paper's
+CLIPort column in brackets: p=0 100 % (100), p=0.15 63 % (57), p=0.3 28 % (22), q=1 93 % (90),
+q=2 25 % (42), q=3 7 % (15).
 
 Expected failure signals: after a drop the carried block is no longer under the suction tip (it
 lies on the table, ``block_fell``); after noisy placement the upper block's centre is offset from the
