@@ -184,3 +184,25 @@ def test_lk_point_under_a_cover_is_followed_through_its_anchors(anchors):
     else:
         assert not res.stale[1].any()
         assert np.linalg.norm(res.points[1] - truth) < 0.01
+
+
+@pytest.mark.parametrize("prior", [0.0, 0.08])
+def test_lk_end_effector_motion_prior_follows_a_fast_held_block(prior):
+    """A block carried at 4 cm per frame with the tip: the kinematic guess lets LK keep it."""
+    cams = two_cameras()
+    box = _block()
+    scene = Scene([box])
+    els = _elements()[1:2]
+    tip0 = np.array([0.0, 0.0, 0.07])
+    tr = make_tracker(TrackerConfig.from_name("lk", ee_prior_radius=prior, anchors=1))
+    tr.reset(observe(scene, cams, 0.0, tip=tip0), els)
+    v = np.array([0.04, 0.0, 0.0])
+    errs = []
+    for f in range(1, 6):
+        box.center = box.center + v
+        res = tr.step(observe(scene, cams, 0.1 * f, tip=tip0 + f * v))
+        errs.append(np.inf if res.stale[1].any() else np.linalg.norm(res.points[1] - (els[0].points + f * v)))
+    if prior:
+        assert max(errs) < 0.01, errs
+    else:
+        assert max(errs) > 0.01, errs  # without the prior the track is lost or left behind

@@ -91,6 +91,10 @@ class LKTrackerConfig(TrackerConfig):
         anchor_search_px: radius in pixels of the window searched for extra anchors.
         reseed_below: re-seed a point in a view when fewer than this fraction of its anchors are
             still tracked there.
+        ee_prior_radius: metres; anchors within this distance of the end-effector tip are tracked from
+            two initial guesses, where they were and where the tip's motion since the last frame would
+            have carried them, and the one that passes the forward-backward check with the smaller error
+            is kept: a held object moves with the gripper, a dropped one does not. 0 disables it.
     """
 
     window: int = 21
@@ -103,18 +107,19 @@ class LKTrackerConfig(TrackerConfig):
     occlusion_tol: float = 0.015
     inside_tol: float = 0.02
     seed_search_px: int = 6
-    max_depth_jump: float = 0.03
+    max_depth_jump: float = 0.01
     border_px: int = 4
     max_depth: float = 5.0
     fusion: str = "mean"
     rigid: bool = True
     rigid_min_points: int = 3
     rigid_max_residual: float = 0.01
-    reacquire_after: int = 5
+    reacquire_after: int = 2
     anchors: int = 6
     anchor_radius: float = 0.025
     anchor_search_px: int = 14
     reseed_below: float = 0.5
+    ee_prior_radius: float = 0.08
 
     def __post_init__(self) -> None:
         if self.anchors < 1:
@@ -131,7 +136,7 @@ class LKTrackerConfig(TrackerConfig):
         for f in ("iterations", "epsilon", "fb_threshold_px", "occlusion_tol", "max_depth_jump",
                   "max_depth", "rigid_max_residual", "reacquire_after"):
             check_positive("lk", f, getattr(self, f))
-        for f in ("border_px", "inside_tol", "seed_search_px"):
+        for f in ("border_px", "inside_tol", "seed_search_px", "ee_prior_radius"):
             check_positive("lk", f, getattr(self, f), allow_zero=True)
         check_positive("lk", "min_eig", self.min_eig, allow_zero=True)
         check_positive("lk", "rekey_px", self.rekey_px, allow_zero=True)

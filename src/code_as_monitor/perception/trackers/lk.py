@@ -90,6 +90,7 @@ class _ViewState:
         self.uv = np.zeros((m, 2), dtype=np.float32)  # anchor pixels, current frame
         self.active = np.zeros(m, dtype=bool)  # tracked in this view
         self.offset = np.zeros((m, 3))  # world-frame offset point - lift(anchor)
+        self.xyz = np.full((m, 3), np.nan)  # lift(anchor) at its last update, world metres
         self.z = np.zeros(m)  # depth reading at the anchor last frame, metres
 
 
@@ -106,6 +107,7 @@ class LKTracker(Tracker):
         self._win = (c.window, c.window)
         self._criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, c.iterations, c.epsilon)
         self._K = c.anchors
+        self._tip: np.ndarray | None = None  # end-effector tip at the previous frame, world
         self._elements: dict[int, Element] = {}
         self._anchors: dict[int, KinematicAnchor] = {}
         self._views: dict[str, _ViewState] = {}
@@ -136,6 +138,7 @@ class LKTracker(Tracker):
             else:
                 tracked.append(el)
         self._order = [el.id for el in elements]
+        self._tip = _tip_of(obs)
         self._elements = {el.id: el for el in elements}
         self._layout(tracked)
         for name, view in obs.views.items():
@@ -150,6 +153,9 @@ class LKTracker(Tracker):
         for name in [n for n in self._views if n not in obs.views]:
             del self._views[name]  # a view that dropped out is re-seeded when it returns
         est = np.full((len(obs.views), m * K, 3), np.nan)  # per view, per anchor slot
+        tip = _tip_of(obs)
+        ee_delta = tip - self._tip if (tip is not None and self._tip is not None) else None
+        self._tip = tip
         for k, (name, view) in enumerate(obs.views.items()):
             gray = self._gray(view)
             st = self._views.get(name)
@@ -157,7 +163,7 @@ class LKTracker(Tracker):
                 st = self._views[name] = _ViewState(m * K)
             st.gray = gray
             if st.active.any() and st.key is not None:
-                self._track(view, st, est[k])
+                self._track(view, st, est[k], ee_delta)
         per_view = _nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
         observed = np.isfinite(per_view[:, :, 0])  # (V, M)
         ok = observed.any(axis=0)
@@ -213,29 +219,56 @@ class LKTracker(Tracker):
         st.key_uv[:] = st.uv
         st.rekey = False
 
-    def _track(self, view: View, st: _ViewState, est: np.ndarray) -> None:
-        """LK key frame -> current and back for the view's active points; writes estimates (M, 3) into ``est``."""
+    def _track(self, view: View, st: _ViewState, est: np.ndarray, ee_delta: np.ndarray | None = None) -> None:
+        """LK key frame -> current and back for the view's active points; writes estimates (M, 3) into ``est``.
+
+        With ``ee_delta`` (the tip's motion since the last frame, world metres), anchors near the tip are
+        also tracked from the guess "moved with the end-effector"; per anchor the hypothesis with the
+        smaller forward-backward error wins.
+        """
         c = self.config
         idx = np.flatnonzero(st.active)
         p0 = st.key_uv[idx].reshape(-1, 1, 2)
+        guesses = [st.uv[idx].astype(np.float32)]
+        if ee_delta is not None and c.ee_prior_radius > 0 and np.linalg.norm(ee_delta) > 1e-3 and self._tip is not None:
+            xyz = st.xyz[idx]
+            near = np.isfinite(xyz[:, 0]) & (np.linalg.norm(xyz - (self._tip - ee_delta), axis=1) <= c.ee_prior_radius)
+            if near.any():
+                moved, z = view.camera.project(np.where(near[:, None], xyz + ee_delta, xyz))
+                g = np.where((near & (z > 0))[:, None] & np.isfinite(moved), moved, guesses[0]).astype(np.float32)
+                guesses.append(g)
         kw = {
             "winSize": self._win, "maxLevel": c.levels, "criteria": self._criteria,
             "minEigThreshold": c.min_eig, "flags": cv2.OPTFLOW_USE_INITIAL_FLOW,
         }
-        p1, s1, _ = cv2.calcOpticalFlowPyrLK(st.key, st.gray, p0, st.uv[idx].reshape(-1, 1, 2).copy(), **kw)
-        p0b, s2, _ = cv2.calcOpticalFlowPyrLK(st.gray, st.key, p1, p0.copy(), **kw)
-        p1 = p1.reshape(-1, 2)
-        fb = np.linalg.norm(p0b.reshape(-1, 2) - p0.reshape(-1, 2), axis=1)
-        good = (s1.ravel() == 1) & (s2.ravel() == 1) & (fb <= c.fb_threshold_px) & self._inside(view, p1)
+        best_p1 = None
+        best_fb = np.full(len(idx), np.inf)
+        for guess in guesses:
+            p1, s1, _ = cv2.calcOpticalFlowPyrLK(st.key, st.gray, p0, guess.reshape(-1, 1, 2).copy(), **kw)
+            p0b, s2, _ = cv2.calcOpticalFlowPyrLK(st.gray, st.key, p1, p0.copy(), **kw)
+            fb = np.linalg.norm(p0b.reshape(-1, 2) - p0.reshape(-1, 2), axis=1)
+            fb = np.where((s1.ravel() == 1) & (s2.ravel() == 1), fb, np.inf)
+            p1 = p1.reshape(-1, 2)
+            if best_p1 is None:
+                best_p1, best_fb = p1.copy(), fb
+            else:
+                better = fb < best_fb
+                best_p1[better], best_fb[better] = p1[better], fb[better]
+        p1, fb = best_p1, best_fb
+        good = (fb <= c.fb_threshold_px) & self._inside(view, p1)
         lifted, valid = self._lift(p1, view.depth, view.camera, c.max_depth)
         good &= valid
         z = np.where(valid, self._cam_z(view, np.nan_to_num(lifted)), np.nan)
+        prev_z = st.z[idx]
+        if len(guesses) > 1:  # a held object's depth follows the tip's motion along the optical axis
+            prev_z = prev_z + np.where(np.isfinite(st.xyz[idx, 0]), ee_delta @ view.camera.T_world_cam[:3, 2], 0.0)
         with np.errstate(invalid="ignore"):
-            good &= np.abs(z - st.z[idx]) <= c.max_depth_jump
+            good &= (np.abs(z - prev_z) <= c.max_depth_jump) | (np.abs(z - st.z[idx]) <= c.max_depth_jump)
         gi = idx[good]
         est[gi] = lifted[good] + st.offset[gi]
         st.uv[gi] = p1[good]
         st.z[gi] = z[good]
+        st.xyz[gi] = lifted[good]
         st.active[idx[~good]] = False
         if gi.size and np.abs(st.uv[gi] - st.key_uv[gi]).max() > c.rekey_px:
             st.rekey = True
@@ -276,6 +309,7 @@ class LKTracker(Tracker):
         st.uv[sel] = cand.reshape(n, s, 2)[rows, pick[rows]]
         st.offset[sel] = P[rows] - anchor_lift
         st.z[sel] = self._cam_z(view, anchor_lift)
+        st.xyz[sel] = anchor_lift
         st.active[sel] = True
         seeded = bool(sel.size)
         if K > 1:
@@ -304,6 +338,7 @@ class LKTracker(Tracker):
             st.uv[sl] = cand.reshape(n, r, 2)[row, take]
             st.offset[sl] = P[row] - lifted[row, take]
             st.z[sl] = self._cam_z(view, lifted[row, take])
+            st.xyz[sl] = lifted[row, take]
             st.active[sl] = True
             any_seeded = True
         return any_seeded
@@ -362,7 +397,7 @@ class LKTracker(Tracker):
                         nsl = _slots(self._slices[eid], K)
                         osl = _slots(o, K)
                         st.uv[nsl], st.active[nsl], st.key_uv[nsl] = ost.uv[osl], ost.active[osl], ost.key_uv[osl]
-                        st.offset[nsl], st.z[nsl] = ost.offset[osl], ost.z[osl]
+                        st.offset[nsl], st.z[nsl], st.xyz[nsl] = ost.offset[osl], ost.z[osl], ost.xyz[osl]
             for eid, osl in old_slices.items():
                 if eid != new.id:
                     self.P[self._slices[eid]] = old_P[osl]
@@ -397,6 +432,14 @@ class LKTracker(Tracker):
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
         return TrackResult(obs.t, points, stale, visible)
+
+
+def _tip_of(obs: Observation) -> np.ndarray | None:
+    """The end-effector tip (3,) in the world frame, or None without robot state."""
+    if obs.robot is None:
+        return None
+    p = obs.robot.ee_points.get("tip")
+    return np.asarray(p if p is not None else obs.robot.ee_pose[:3, 3], dtype=np.float64).reshape(3)
 
 
 def _slots(sl: slice, k: int) -> slice:
