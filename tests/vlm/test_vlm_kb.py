@@ -12,6 +12,7 @@ from code_as_monitor.vlm.backend import KBBackendConfig, make_backend
 from code_as_monitor.vlm.kb import KBBackend
 from code_as_monitor.vlm.kb.feedback import classify
 from code_as_monitor.vlm.kb.tasks import infer_objects, tower_order
+from code_as_monitor.vlm.kb.thresholds import THRESHOLDS
 
 STACK = "stack the blocks: red at the bottom, then green, then blue"
 SWEEP = "sweep half of the blocks into the zone"
@@ -64,7 +65,8 @@ def test_stack_constraints_phases_and_parts():
     assert by_id["attached_blue_block"].phase.value == "during" and not by_id["attached_blue_block"].proactive
     assert by_id["still_green_block"].proactive
     cen = by_id["centred_blue_block_on_green_block"]
-    assert cen.phase.value == "upon" and cen.proactive and cen.thresholds["max_offset"] == pytest.approx(0.015)
+    assert cen.phase.value == "upon" and cen.proactive
+    assert cen.thresholds["max_offset"] == pytest.approx(THRESHOLDS["centred"]["max_offset"])
     assert "tower_green_block_on_red_block" in by_id
 
 
