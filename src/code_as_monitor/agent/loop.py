@@ -60,7 +60,7 @@ class AgentConfig:
 
     frame_hz: float = 10.0
     max_replans: int = 8
-    max_subgoals: int = 24
+    max_subgoals: int = 80
     time_limit_s: float | None = None
     history_len: int = 64
     code_retries: int = 2

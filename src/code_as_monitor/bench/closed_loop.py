@@ -52,7 +52,7 @@ class ClosedLoopConfig:
     height: int = 240
     camera_hz: float = 10.0
     video: bool = True
-    max_replans: int = 8
+    max_replans: int = 30
 
     def __post_init__(self) -> None:
         if self.width < 32 or self.height < 32:
@@ -73,13 +73,15 @@ def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
 
 
 def run_closed_loop(
-    cfg: ClosedLoopConfig, run_dir: Path | None = None, on_event: EventCallback | None = None
+    cfg: ClosedLoopConfig, run_dir: Path | None = None, on_event: EventCallback | None = None,
+    on_env: Callable[[Any], None] | None = None,
 ) -> dict[str, Any]:
     """Run one Code-as-Monitor episode; returns the summary (also written to ``run_dir/summary.json``).
 
     ``run_dir`` (created by the caller, fresh) receives ``events.jsonl`` (agent events, flushed as
     written), ``ground_truth.jsonl`` (the simulator's disturbance/consequence log), ``episode.mp4``,
-    ``prompts/`` and ``programs/``.
+    ``prompts/`` and ``programs/``. ``on_env`` is called with the ``SimEnv`` once it exists (the
+    benchmark uses it to run counterfactual rollouts from inside ``on_event``).
     """
     import cv2
 
@@ -135,6 +137,8 @@ def run_closed_loop(
         with make_env(cfg.task, seed=cfg.seed, world_config=world_cfg, **cfg.task_params) as env:
             if run_dir is not None:
                 env.world.events.open(run_dir / "ground_truth.jsonl")
+            if on_env is not None:
+                on_env(env)
             agent = Agent(
                 generator, coder, painter, tracker, runtime, ElementHistory,
                 AgentConfig(frame_hz=cfg.camera_hz, max_replans=cfg.max_replans,

@@ -36,7 +36,7 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera-hz", type=float, default=10.0, help="monitoring/camera rate, Hz (default 10)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
     p.add_argument("--runs", type=Path, default=Path("runs"), help="parent of the run directory (default runs/)")
-    p.add_argument("--max-replans", type=int, default=12, help="failed subgoals allowed (default 12)")
+    p.add_argument("--max-replans", type=int, default=30, help="failed subgoals allowed (default 30)")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
 
 
