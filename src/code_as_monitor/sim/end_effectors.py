@@ -1,4 +1,5 @@
-"""End-effectors as in CLIPort: a suction cup (pick, place, stack) and a spatula (push).
+"""End-effectors: as in CLIPort a suction cup (pick, place, stack) and a spatula (push), plus a
+parallel-jaw gripper (grasp, reorient, insert, pour, pull).
 
 A tool is its own body (``assets/suction.urdf`` / ``assets/spatula.urdf``) fixed to the Panda's
 grasp frame by a stiff fixed constraint. Its frame's +z axis is the approach direction (down when
@@ -8,6 +9,18 @@ Suction: ``activate()`` attaches the nearest graspable body within ``contact_tol
 fixed constraint that keeps their relative pose (CLIPort's model); ``release()`` removes it. The
 suction stays "on" (``RobotState.gripper == 1``) after a drop disturbance detaches the object: the
 open-loop policy does not know it lost the block.
+
+Gripper (:class:`Gripper`, ``assets/gripper.urdf``): two fingers on prismatic joints closing along the
+tool's x axis, grasp point (tip) 6 cm along +z. Design choice: a *closed grasp is a fixed
+constraint*, not a friction grip. ``close()`` closes the fingers and, when the grasp point lies
+inside (within ``grasp_tol``) the bounding box of a graspable body's link, fixes that body (or, for a
+fixed-base articulated body such as a drawer, that link) to the tool at their current relative pose;
+the fingers visually close to the grasped link's width. ``open()`` opens the fingers and removes
+the constraint. The tool has no collision shapes, so it never shoves the object it approaches. Like
+the suction, a disturbance can ``detach()`` the object while the fingers stay closed
+(``RobotState.gripper == 1``): the open-loop policy does not know. The gripper also *tilts*: its
+pitch about the closing axis is commanded with its yaw (``Panda.ik``), so a held pen or book can be
+turned upright and a teapot tilted.
 """
 
 from __future__ import annotations
@@ -51,6 +64,9 @@ class EndEffector:
     def gripper_value(self) -> float:
         return 1.0 if self.active else 0.0
 
+    tilts = False
+    """True when the tool's pitch is commanded (the gripper); otherwise the tool always points down."""
+
 
 class Suction(EndEffector):
     """Suction cup: a fixed constraint to the touched object while active."""
@@ -93,15 +109,20 @@ class Suction(EndEffector):
         self.attach(best, rpos, rorn)
         return best
 
-    def attach(self, body: int, rel_pos, rel_orn) -> None:
-        """Fix ``body`` to the cup at relative pose (``rel_pos`` metres, ``rel_orn`` quaternion)."""
+    def attach(self, body: int, rel_pos, rel_orn, link: int = -1) -> None:
+        """Fix ``body`` (its ``link``; -1 the base) to the tool at relative pose (``rel_pos`` metres,
+        ``rel_orn`` quaternion, the object's frame in the tool's frame)."""
         import pybullet as pb
 
         c = self.client
-        self._constraint = pb.createConstraint(self.body, -1, body, -1, pb.JOINT_FIXED, [0, 0, 0], rel_pos,
+        self._constraint = pb.createConstraint(self.body, -1, body, link, pb.JOINT_FIXED, [0, 0, 0], rel_pos,
                                                [0, 0, 0], parentFrameOrientation=rel_orn, physicsClientId=c)
-        pb.changeConstraint(self._constraint, maxForce=100, physicsClientId=c)
-        self._held, self._rel = body, (tuple(rel_pos), tuple(rel_orn))
+        pb.changeConstraint(self._constraint, maxForce=self.hold_force, physicsClientId=c)
+        self._held, self._rel, self._link = body, (tuple(rel_pos), tuple(rel_orn)), link
+
+    hold_force = 100.0
+    """Newtons: the attachment constraint's maximum force."""
+    _link = -1
 
     def attachment(self) -> tuple | None:
         """(body, rel_pos, rel_orn) of the attached object, or None (for save/restore)."""
@@ -131,6 +152,92 @@ class Spatula(EndEffector):
     tip_length = 0.10
 
 
+class Gripper(Suction):
+    """Parallel-jaw gripper; a closed grasp is a fixed constraint (see the module docstring).
+
+    It shares the suction's attachment bookkeeping (``holding``, ``attach``, ``detach``,
+    ``attachment``) so the world's save/restore and the drop disturbances work unchanged.
+    """
+
+    kind = "gripper"
+    urdf = "gripper.urdf"
+    tip_length = 0.06
+    grasp_tol = 0.01  # metres the grasp point may lie outside a link's bounding box
+    open_width = 0.04  # per finger, metres from the centre
+    tilts = True
+    hold_force = 200.0
+
+    def load(self, robot_body: int, link: int) -> None:
+        super().load(robot_body, link)
+        self._fingers(self.open_width)
+
+    def _fingers(self, half_width: float) -> None:
+        import pybullet as pb
+
+        pb.setJointMotorControlArray(self.body, [0, 1], pb.POSITION_CONTROL, targetPositions=[half_width] * 2,
+                                     forces=[20.0, 20.0], physicsClientId=self.client)
+
+    def grasp_point(self) -> np.ndarray:
+        """(3,) world position of the grasp point (the tool tip)."""
+        import pybullet as pb
+
+        pos, orn = pb.getBasePositionAndOrientation(self.body, physicsClientId=self.client)
+        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+        return np.asarray(pos) + R[:, 2] * self.tip_length
+
+    def close(self, graspable: list[int]) -> tuple[int, int] | None:
+        """Close the fingers; grasp the graspable link around the grasp point. Returns (body, link) or None."""
+        import pybullet as pb
+
+        c = self.client
+        self.active = True
+        if self._held is not None:
+            return self._held, self._link
+        p = self.grasp_point()
+        best, best_d = None, np.inf
+        for b in graspable:
+            for link in range(-1, pb.getNumJoints(b, physicsClientId=c)):
+                lo, hi = (np.asarray(v) for v in pb.getAABB(b, link, physicsClientId=c))
+                if np.all(p >= lo - self.grasp_tol) and np.all(p <= hi + self.grasp_tol):
+                    d = float(np.linalg.norm(p - (lo + hi) / 2))
+                    if d < best_d:
+                        best, best_d = (b, link, lo, hi), d
+        if best is None:
+            self._fingers(0.0)
+            return None
+        b, link, lo, hi = best
+        fixed_base = pb.getDynamicsInfo(b, -1, physicsClientId=c)[0] == 0.0
+        at = link if fixed_base else -1
+        tpos, torn = pb.getBasePositionAndOrientation(self.body, physicsClientId=c)
+        if at < 0:
+            opos, oorn = pb.getBasePositionAndOrientation(b, physicsClientId=c)
+        else:
+            opos, oorn = pb.getLinkState(b, at, computeForwardKinematics=True, physicsClientId=c)[:2]
+        ipos, iorn = pb.invertTransform(tpos, torn)
+        rpos, rorn = pb.multiplyTransforms(ipos, iorn, opos, oorn)
+        self.attach(b, rpos, rorn, at)
+        x_axis = np.reshape(pb.getMatrixFromQuaternion(torn), (3, 3))[:, 0]
+        self._fingers(float(np.clip(np.abs(x_axis) @ (hi - lo) / 2, 0.0, self.open_width)))
+        return b, at
+
+    def attachment(self) -> tuple | None:
+        """(body, rel_pos, rel_orn, link) of the grasped object, or None (for save/restore)."""
+        return None if self._held is None else (self._held, *self._rel, self._link)
+
+    def open(self) -> int | None:
+        """Open the fingers and let go. Returns the body that was held."""
+        self._fingers(self.open_width)
+        self.active = False
+        return self.detach()
+
+    def activate(self, graspable: list[int]) -> int | None:  # the suction-compatible name
+        got = self.close(graspable)
+        return None if got is None else got[0]
+
+    def release(self) -> int | None:
+        return self.open()
+
+
 def make_end_effector(kind: str, client: int) -> EndEffector:
     from code_as_monitor.core.errors import SimError
 
@@ -138,8 +245,11 @@ def make_end_effector(kind: str, client: int) -> EndEffector:
         return Suction(client)
     if kind == "spatula":
         return Spatula(client)
-    raise SimError(f"unknown end-effector {kind!r}; choose suction or spatula")
+    if kind == "gripper":
+        return Gripper(client)
+    raise SimError(f"unknown end-effector {kind!r}; choose suction, spatula or gripper")
 
 
 def tip_offset(kind: str) -> np.ndarray:
-    return np.array([0.0, 0.0, {"suction": Suction.tip_length, "spatula": Spatula.tip_length}[kind]])
+    lengths = {"suction": Suction.tip_length, "spatula": Spatula.tip_length, "gripper": Gripper.tip_length}
+    return np.array([0.0, 0.0, lengths[kind]])

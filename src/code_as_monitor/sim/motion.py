@@ -16,6 +16,7 @@ TRANSIT_SPEED = 0.4  # m/s, free-space moves
 SLOW_SPEED = 0.15  # m/s, descending to contact / releasing
 PUSH_SPEED = 0.25  # m/s, spatula strokes
 YAW_RATE = 2.0  # rad/s
+PITCH_RATE = 1.2  # rad/s, tilting a held object (gripper only)
 
 
 def min_jerk(s: float) -> float:
@@ -38,21 +39,26 @@ class Mover:
         """Reset the commanded pose to the measured one (after a halt or at start)."""
         self.tip = self.world.robot.tip().copy()
         self.yaw = self.world.robot.yaw()
+        self.pitch = self.world.robot.pitch() if self.world.robot.ee.tilts else 0.0
 
-    def move(self, target, yaw: float | None = None, speed: float = TRANSIT_SPEED, min_time: float = 0.15
-             ) -> Iterator[None]:
-        """Move the tip from the commanded pose to ``target`` (3,), yaw to ``yaw`` (None: keep)."""
+    def move(self, target, yaw: float | None = None, speed: float = TRANSIT_SPEED, min_time: float = 0.15,
+             pitch: float | None = None) -> Iterator[None]:
+        """Move the tip from the commanded pose to ``target`` (3,), yaw to ``yaw`` and pitch to ``pitch``
+        (None: keep; pitch only for a tilting tool)."""
         world = self.world
         target = np.asarray(target, dtype=float)
-        start, y0 = self.tip.copy(), self.yaw
+        start, y0, p0 = self.tip.copy(), self.yaw, self.pitch
         y1 = y0 if yaw is None else y0 + wrap_angle(yaw - y0)
-        dur = max(float(np.linalg.norm(target - start)) / speed, abs(y1 - y0) / YAW_RATE, min_time)
+        p1 = p0 if pitch is None or not world.robot.ee.tilts else float(pitch)
+        dur = max(float(np.linalg.norm(target - start)) / speed, abs(y1 - y0) / YAW_RATE,
+                  abs(p1 - p0) / PITCH_RATE, min_time)
         n = max(1, round(dur / world.dt))
         for k in range(1, n + 1):
             s = min_jerk(k / n)
             self.tip = start + s * (target - start)
             self.yaw = y0 + s * (y1 - y0)
-            world.robot.move_tip(self.tip, self.yaw)
+            self.pitch = p0 + s * (p1 - p0)
+            world.robot.move_tip(self.tip, self.yaw, self.pitch)
             yield
 
     def wait(self, seconds: float) -> Iterator[None]:

@@ -26,6 +26,7 @@ import numpy as np
 
 from code_as_monitor.core.constraints import Action
 from code_as_monitor.core.errors import SimError
+from code_as_monitor.sim.gripper_skills import GRIPPER_SKILLS, GripperSkills
 from code_as_monitor.sim.motion import PUSH_SPEED, SLOW_SPEED, Mover, wrap_angle
 from code_as_monitor.sim.world import World
 
@@ -38,10 +39,11 @@ SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
     "place_on": (("obj", "target"), "suction"),
     "push_into_region": (("region",), "spatula"),
     "close_shape": (("rope", "shape"), "suction"),
+    **GRIPPER_SKILLS,
 }
 
 
-class ScriptedPolicy:
+class ScriptedPolicy(GripperSkills):
     """Oracle pick-and-place / push / rope-adjustment policy for one world and task."""
 
     def __init__(self, world: World, task: Any) -> None:

@@ -1,7 +1,9 @@
 """The Franka Panda from ``pybullet_data``, driven by inverse kinematics on the tool tip.
 
-Poses are commanded as a tool-tip position (world, metres) and a yaw about the world z axis
-(radians), with the tool pointing straight down. Joint position motors track the IK solution.
+Poses are commanded as a tool-tip position (world, metres), a yaw about the world z axis (radians)
+and a pitch (radians, default 0) about the tool's own x axis: pitch 0 points the tool straight down,
+pitch pi/2 points it horizontally (only the gripper tilts; see ``EndEffector.tilts``). Joint position
+motors track the IK solution.
 """
 
 from __future__ import annotations
@@ -17,11 +19,12 @@ HOME_Q = [-0.8, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]  # parked to the side: cameras
 ARM_FORCES = [240.0, 240.0, 240.0, 240.0, 60.0, 60.0, 60.0]
 
 
-def down_quat(yaw: float) -> tuple[float, float, float, float]:
-    """Quaternion (x, y, z, w) of a tool pointing down (+z of the tool = world -z), rotated by ``yaw``."""
+def down_quat(yaw: float, pitch: float = 0.0) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of a tool pointing down (+z of the tool = world -z), rotated by ``yaw``
+    about world z, then tilted by ``pitch`` about its own x axis: Rz(yaw) Rx(pi) Rx(pitch)."""
     import pybullet as pb
 
-    return tuple(pb.getQuaternionFromEuler([np.pi, 0.0, float(yaw)]))
+    return tuple(pb.getQuaternionFromEuler([np.pi + float(pitch), 0.0, float(yaw)]))
 
 
 def pose_matrix(pos, orn) -> np.ndarray:
@@ -91,21 +94,29 @@ class Panda:
         R = self.grasp_pose()[:3, :3]
         return float(np.arctan2(R[1, 0], R[0, 0]))
 
+    def pitch(self) -> float:
+        """Current tool pitch about its own x axis (radians; 0 = pointing down)."""
+        R = self.grasp_pose()[:3, :3]
+        return float(np.arctan2(-R[2, 1], -R[2, 2]))
+
     def joints(self) -> np.ndarray:
         import pybullet as pb
 
         return np.array([s[0] for s in pb.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)])
 
-    def ik(self, tip: np.ndarray, yaw: float) -> list[float]:
-        """Arm joint angles (7,) placing the tool tip at ``tip`` pointing down with ``yaw``."""
+    def ik(self, tip: np.ndarray, yaw: float, pitch: float = 0.0) -> list[float]:
+        """Arm joint angles (7,) placing the tool tip at ``tip`` with ``yaw`` (and ``pitch``, see module doc)."""
         import pybullet as pb
 
-        orn = down_quat(yaw)
+        orn = down_quat(yaw, pitch)
         R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
         grasp = np.asarray(tip, float) - R[:, 2] * self.ee.tip_length
+        iters = 60
+        if pitch:  # a tilted tool is far from the rest posture: converge harder
+            iters = 200
         q = pb.calculateInverseKinematics(
             self.body, GRASP_LINK, grasp.tolist(), orn, lowerLimits=self._ll, upperLimits=self._ul,
-            jointRanges=self._jr, restPoses=self._rest, maxNumIterations=60, residualThreshold=1e-5,
+            jointRanges=self._jr, restPoses=self._rest, maxNumIterations=iters, residualThreshold=1e-5,
             physicsClientId=self.client,
         )
         return list(q[:7])
@@ -119,9 +130,9 @@ class Panda:
         pb.setJointMotorControlArray(self.body, ARM_JOINTS, pb.POSITION_CONTROL, targetPositions=self.q_target,
                                      forces=ARM_FORCES, positionGains=[0.3] * 7, physicsClientId=self.client)
 
-    def move_tip(self, tip: np.ndarray, yaw: float) -> None:
-        """Command the tool tip to ``tip`` (3,) world metres with ``yaw`` radians."""
-        self.command(self.ik(tip, yaw))
+    def move_tip(self, tip: np.ndarray, yaw: float, pitch: float = 0.0) -> None:
+        """Command the tool tip to ``tip`` (3,) world metres with ``yaw`` (and ``pitch``) radians."""
+        self.command(self.ik(tip, yaw, pitch))
 
     def hold(self) -> None:
         """Keep the current joint targets (the arm holds its pose)."""

@@ -169,7 +169,11 @@ class World:
                     lab[encode_seg_id(b, link)] = (name, part)
             for link, lname in self.robot.link_names.items():
                 lab[encode_seg_id(self.robot.body, link)] = ("robot", lname)
-            lab[encode_seg_id(self.robot.ee.body, -1)] = ("robot", self.robot.ee.kind)
+            import pybullet as pb
+
+            ee = self.robot.ee.body
+            for link in range(-1, pb.getNumJoints(ee, physicsClientId=self.client)):  # gripper fingers too
+                lab[encode_seg_id(ee, link)] = ("robot", self.robot.ee.kind)
             self._seg_labels = lab
         return self._seg_labels
 
