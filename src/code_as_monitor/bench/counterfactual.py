@@ -1,0 +1,122 @@
+"""Counterfactual rollouts for proactive alarms: would the predicted failure have happened?
+
+At a proactive alarm (an alarm raised by a constraint marked ``proactive``, e.g. "the green block is
+off-centre, so the next block will topple the tower"), :func:`rollout` snapshots the simulator
+(:meth:`World.save_state` plus the Python-side state of the task, the disturbances and the scripted
+policy), lets the open-loop policy go on WITHOUT the monitor for ``horizon_s`` seconds — first the
+action in progress, then the rest of the task's fixed plan after it — and records whether a
+predicted failure event (:data:`PREDICTED_KINDS`) appears in the ground-truth log. Then it restores
+the snapshot, so the monitored episode continues exactly from the alarm.
+
+Nothing of the rollout leaks into the episode: physics, clock, event log (truncated, and its file
+mirror paused), disturbance random generators and the task's consequence detectors are restored.
+Only the policy's in-flight action cannot be rewound (a Python generator); every alarm is followed by
+a halt or a new action, which discards it.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+
+PREDICTED_KINDS = ("tower_collapsed",)
+"""Ground-truth event kinds that confirm a proactive prediction (the kb's proactive constraints all
+predict a toppling tower; drops are random and never predictable)."""
+
+DEFAULT_HORIZON_S = 15.0
+
+_PLAIN = (int, float, bool, str, type(None), dict, list, tuple, set, np.ndarray, np.random.Generator)
+
+
+def _policy_chain(policy: Any) -> list[Any]:
+    chain = [policy]
+    while hasattr(chain[-1], "inner"):
+        chain.append(chain[-1].inner)
+    return chain
+
+
+def _stateful(env: Any) -> list[Any]:
+    """Python objects whose plain attributes hold episode state (task, disturbances, policy layers)."""
+    objs: list[Any] = [env.task]
+    for hook in env.world.tick_hooks:
+        owner = getattr(hook, "__self__", None)
+        if owner is not None and owner not in objs:
+            objs.append(owner)
+    for layer in _policy_chain(env.policy):
+        for o in (layer, getattr(layer, "noise", None), getattr(layer, "mover", None)):
+            if o is not None and o not in objs:
+                objs.append(o)
+    return objs
+
+
+def _snapshot(objs: list[Any]) -> list[tuple[Any, dict[str, Any]]]:
+    return [(o, {k: copy.deepcopy(v) for k, v in vars(o).items() if isinstance(v, _PLAIN)}) for o in objs]
+
+
+def _restore(snap: list[tuple[Any, dict[str, Any]]]) -> None:
+    for o, attrs in snap:
+        for k, v in attrs.items():
+            setattr(o, k, v)
+
+
+def _remaining_plan(env: Any) -> list[Any]:
+    """The plan's actions after the one the policy is doing now (matched by skill and object)."""
+    current = getattr(_policy_chain(env.policy)[-1], "action", None)
+    if current is None:
+        return list(env.plan)
+    for i, a in enumerate(env.plan):
+        if a.skill == current.skill and a.args.get("obj") == current.args.get("obj"):
+            return list(env.plan[i + 1:])
+    return []
+
+
+def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ...] = PREDICTED_KINDS) -> dict[str, Any]:
+    """Continue open loop from now for ``horizon_s`` seconds, then restore; returns what happened.
+
+    Returns ``{"confirmed": bool, "event": first predicted event or None, "lead_s": event t - now or
+    None, "horizon_s": ..., "success_at_end": task evaluation at the end of the rollout}``.
+    """
+    world, policy = env.world, env.policy
+    base = _policy_chain(policy)[-1]
+    t_alarm = world.t
+    n_events = len(world.events.events)
+    token = world.save_state()
+    snap = _snapshot(_stateful(env))
+    gen_was_live = getattr(base, "_gen", None) is not None
+    action = getattr(base, "action", None)
+    fh, world.events._fh = world.events._fh, None  # keep the rollout out of the ground-truth file
+    found: dict[str, Any] | None = None
+    try:
+        end = t_alarm + horizon_s
+        plan = _remaining_plan(env)
+        while world.t < end - 1e-9 and found is None:
+            if policy.done:
+                if not plan:
+                    policy.step()
+                else:
+                    policy.start(plan.pop(0))
+            else:
+                policy.step()
+            found = next((e for e in world.events.events[n_events:] if e["kind"] in kinds), None)
+        success = bool(env.evaluate().success)
+    finally:
+        if not gen_was_live and getattr(base, "_gen", None) is not None:
+            base._gen.close()
+            base._gen = None
+        world.restore_state(token)
+        _restore(snap)
+        if hasattr(base, "action"):
+            base.action = action
+        world.events._fh = fh
+    return {
+        "confirmed": found is not None,
+        "event": {"t": found["t"], "kind": found["kind"], "obj": found["obj"]} if found else None,
+        "lead_s": round(found["t"] - t_alarm, 3) if found else None,
+        "horizon_s": horizon_s,
+        "success_at_end": success,
+    }
+
+
+__all__ = ["DEFAULT_HORIZON_S", "PREDICTED_KINDS", "rollout"]

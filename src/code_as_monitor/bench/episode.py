@@ -1,0 +1,215 @@
+"""One benchmark episode of any method -> one compact, JSON-serialisable result record.
+
+``cam`` runs through :func:`code_as_monitor.bench.closed_loop.run_closed_loop`; the baselines run
+here over the same simulator, planner and VLM backend. Proactive alarms of every method get a
+counterfactual rollout (:mod:`code_as_monitor.bench.counterfactual`) from inside the agent's
+``on_event("alarm")`` callback. An exception inside an episode is recorded (``error``), not raised,
+so one broken cell never stops a sweep.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
+from code_as_monitor.bench.protocol import Job, condition, episode_seed
+
+log = logging.getLogger(__name__)
+
+RECORD_VERSION = 1
+OPEN_LOOP_VIDEO_HZ = 2.0
+GT_KINDS = ("drop", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
+            "opening_open")
+"""Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
+
+
+@dataclass
+class EpisodeOptions:
+    """Method settings shared by every episode of a sweep (stored in the results file's header).
+
+    Attributes:
+        backend, backend_options: the VLM backend (``kb`` offline: the baselines then use the
+            ``vqa-standin`` single-image stand-in; ``openai``: a real VLM answers their questions).
+        doremi_k_s: seconds between DoReMi's VQA checks.
+        segmenter, tracker: CaM's perception choices.
+        camera_hz: CaM's monitoring rate (frames per second of sim time).
+        counterfactual: run counterfactual rollouts at proactive alarms; ``horizon_s`` their length.
+    """
+
+    backend: str = "kb"
+    backend_options: dict[str, Any] = field(default_factory=dict)
+    doremi_k_s: float = 1.0
+    segmenter: str = "sim"
+    tracker: str = "sim"
+    camera_hz: float = 10.0
+    counterfactual: bool = True
+    horizon_s: float = DEFAULT_HORIZON_S
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _compact_gt(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for e in events:
+        if e["kind"] in GT_KINDS:
+            c = {"t": e["t"], "kind": e["kind"], "obj": e.get("obj", "")}
+            if "count" in e:
+                c["count"] = e["count"]
+            out.append(c)
+    return out
+
+
+class _Counterfactuals:
+    """``on_event`` hook: a rollout at every proactive alarm, attached to the alarm by index."""
+
+    def __init__(self, opts: EpisodeOptions) -> None:
+        self.opts = opts
+        self.env: Any = None
+        self.results: list[dict[str, Any] | None] = []
+
+    def set_env(self, env: Any) -> None:
+        self.env = env
+
+    def __call__(self, ev: dict[str, Any]) -> None:
+        if ev.get("kind") != "alarm":
+            return
+        cf = None
+        if self.opts.counterfactual and ev.get("proactive") and self.env is not None:
+            cf = rollout(self.env, self.opts.horizon_s)
+        self.results.append(cf)
+
+
+def _alarms(alarms: list[dict[str, Any]], cfs: list[dict[str, Any] | None]) -> list[dict[str, Any]]:
+    out = []
+    for i, a in enumerate(alarms):
+        d = {"t": round(float(a["t"]), 3), "constraint_id": a["constraint_id"], "phase": a["phase"],
+             "proactive": bool(a["proactive"]), "reason": str(a["reason"])[:160]}
+        if i < len(cfs) and cfs[i] is not None:
+            d["cf"] = cfs[i]
+        out.append(d)
+    return out
+
+
+def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions, run_dir: Path | None,
+             cfs: _Counterfactuals) -> dict[str, Any]:
+    from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+
+    cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend,
+                           backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
+                           camera_hz=opts.camera_hz, video=run_dir is not None)
+    s = run_closed_loop(cfg, run_dir, on_event=cfs, on_env=cfs.set_env)
+    ep = s["episode"]
+    return {"success": s["success"], "reason": s["reason"], "sim_time_s": s["sim_time_s"],
+            "alarms": ep["alarms"], "gt": s["ground_truth_events"], "vlm": s["vlm"]["episode"],
+            "stop_reason": ep["stop_reason"], "replans": ep["replans"], "frames": None}
+
+
+def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
+                  run_dir: Path | None, cfs: _Counterfactuals) -> dict[str, Any]:
+    from code_as_monitor.baselines.agents import CheckingAgent, DoReMiConfig, InnerMonologueConfig, OpenLoopAgent
+    from code_as_monitor.baselines.vqa import make_vqa
+    from code_as_monitor.bench.closed_loop import _settle_and_evaluate
+    from code_as_monitor.planning.generator import ConstraintGenerator
+    from code_as_monitor.sim.env import make_env
+    from code_as_monitor.sim.world import WorldConfig
+    from code_as_monitor.viz.video import VideoWriter, compose_frame
+    from code_as_monitor.vlm import VLMBackendConfig, make_backend
+
+    # Open-loop renders nothing of its own; its sample video is rendered at OPEN_LOOP_VIDEO_HZ only.
+    fps = OPEN_LOOP_VIDEO_HZ if method == "open-loop" else opts.camera_hz
+    video = VideoWriter(run_dir / "episode.mp4", fps=fps) if run_dir is not None else None
+
+    def emit(kind: str, **fields: Any) -> None:
+        cfs({"kind": kind, **fields})
+
+    try:
+        with make_env(task, seed=seed, world_config=WorldConfig(camera_hz=opts.camera_hz), **params) as env:
+            cfs.set_env(env)
+            limit = env.task.config.time_limit
+            frames = 0
+            if method == "open-loop":
+                usage_ep: dict[str, Any] = {"calls": 0, "prompt_tokens": 0, "completion_tokens": 0,
+                                            "total_tokens": 0, "calls_by_purpose": {}}
+
+                next_frame = [0.0]
+
+                def tick() -> None:  # only the sample episode renders (for its video)
+                    if video is not None and env.world.t >= next_frame[0] - 1e-9:
+                        next_frame[0] += 1.0 / OPEN_LOOP_VIDEO_HZ
+                        video.write(compose_frame(env.world.observe(), [], None, [], ""))
+
+                agent: Any = OpenLoopAgent(env.plan, limit, on_event=emit, on_tick=tick)
+                episode = agent.run(env.instruction, env.world, env.policy)
+            else:
+                backend = make_backend(VLMBackendConfig.from_name(opts.backend, **opts.backend_options))
+                planner = ConstraintGenerator(backend)
+                vqa = make_vqa(opts.backend, backend, planner.usage)
+                doremi = method == "doremi"
+                cfg = DoReMiConfig(k_s=opts.doremi_k_s) if doremi else InnerMonologueConfig()
+
+                def on_frame(obs: Any, banner: str) -> None:
+                    if video is not None:
+                        video.write(compose_frame(obs, [], None, [], banner))
+
+                agent = CheckingAgent(planner, vqa, cfg, opts.doremi_k_s if doremi else None,
+                                      ask_all_at_end=not doremi, time_limit_s=limit, on_event=emit,
+                                      on_frame=on_frame)
+                episode = agent.run(env.instruction, env.world, env.policy)
+                frames = agent.frames
+                usage_ep = planner.usage.episode()
+            result = _settle_and_evaluate(env, episode.stop_reason)
+            gt = list(env.world.events.events)
+    finally:
+        if video is not None:
+            video.close()
+    return {"success": bool(result.success), "reason": result.reason, "sim_time_s": round(float(episode.t_end), 3),
+            "alarms": [a.to_dict() for a in episode.alarms], "gt": gt, "vlm": usage_ep,
+            "stop_reason": episode.stop_reason, "replans": episode.replans, "frames": frames}
+
+
+def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -> dict[str, Any]:
+    """Run ``job`` and return its result record (see ``RESULTS.md`` for the fields).
+
+    ``video_dir``: a fresh directory for this episode's sample video and artefacts (None: no video).
+    """
+    cond = condition(job.condition)
+    seed = episode_seed(job.condition, job.seed, job.episode)
+    wall0 = time.perf_counter()
+    cfs = _Counterfactuals(opts)
+    rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
+                           "episode": job.episode, "episode_seed": seed, "task": cond.task,
+                           "undisturbed": cond.undisturbed}
+    if video_dir is not None:
+        video_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        if job.method == "cam":
+            out = _run_cam(cond.task, seed, dict(cond.params), opts, video_dir, cfs)
+        else:
+            out = _run_baseline(job.method, cond.task, seed, dict(cond.params), opts, video_dir, cfs)
+        vlm = out["vlm"]
+        rec.update(
+            success=bool(out["success"]), reason=str(out["reason"])[:200], sim_time_s=out["sim_time_s"],
+            stop_reason=out["stop_reason"], replans=out["replans"], frames=out["frames"],
+            vlm={k: vlm.get(k, 0) for k in ("calls", "prompt_tokens", "completion_tokens", "total_tokens",
+                                             "calls_by_purpose")},
+            alarms=_alarms(out["alarms"], cfs.results), gt=_compact_gt(out["gt"]), error=None,
+        )
+    except Exception as exc:  # recorded, not raised: one broken cell must not stop a sweep
+        log.warning("episode %s failed: %s", job.key, exc)
+        rec.update(success=False, reason="error", sim_time_s=None, stop_reason="error", replans=0, frames=None,
+                   vlm={"calls": 0, "prompt_tokens": 0, "completion_tokens": 0, "total_tokens": 0,
+                        "calls_by_purpose": {}}, alarms=[], gt=[],
+                   error=f"{type(exc).__name__}: {exc}"[:300], traceback=traceback.format_exc()[-1500:])
+    rec["wall_time_s"] = round(time.perf_counter() - wall0, 3)
+    rec["video"] = str(video_dir / "episode.mp4") if video_dir is not None and (video_dir / "episode.mp4").exists() \
+        else None
+    return rec
+
+
+__all__ = ["GT_KINDS", "RECORD_VERSION", "EpisodeOptions", "run_episode"]

@@ -1,0 +1,31 @@
+"""The paper's CLIPort numbers (supplementary table "Detailed Performance in CLIPort"; the main
+text's Table 1 shows the stack-in-order rows of it), transcribed for side-by-side reports.
+
+``PAPER[condition][method] = (success %, 95 % CI, time s, 95 % CI)``; time is None where the paper
+gives none (it reports no execution time for CLIPort alone).
+"""
+
+from __future__ import annotations
+
+Cell = tuple[float, float, float | None, float | None]
+
+PAPER: dict[str, dict[str, Cell]] = {
+    "stack-p0": {"open-loop": (100.00, 0.00, None, None), "inner-monologue": (100.00, 0.00, 13.40, 1.82),
+                 "doremi": (100.00, 0.00, 13.40, 1.82), "cam": (100.00, 0.00, 13.40, 1.82)},
+    "stack-p0.15": {"open-loop": (56.67, 6.11, None, None), "inner-monologue": (81.67, 6.11, 34.80, 3.12),
+                    "doremi": (83.33, 5.17, 26.00, 2.77), "cam": (95.00, 4.00, 21.00, 1.75)},
+    "stack-p0.3": {"open-loop": (21.67, 8.33, None, None), "inner-monologue": (75.00, 8.95, 42.80, 3.18),
+                   "doremi": (76.67, 9.52, 34.20, 2.73), "cam": (88.33, 6.53, 25.40, 2.95)},
+    "stack-q1": {"open-loop": (90.00, 6.11, None, None), "inner-monologue": (90.00, 6.11, 24.80, 4.08),
+                 "doremi": (96.67, 4.00, 24.60, 4.66), "cam": (98.33, 3.27, 24.20, 4.65)},
+    "stack-q2": {"open-loop": (41.67, 7.30, None, None), "inner-monologue": (71.67, 8.33, 39.40, 5.87),
+                 "doremi": (75.00, 5.17, 37.00, 6.29), "cam": (83.33, 5.17, 29.20, 4.61)},
+    "stack-q3": {"open-loop": (15.00, 6.11, None, None), "inner-monologue": (40.00, 8.00, 58.20, 4.74),
+                 "doremi": (40.00, 6.11, 54.20, 6.02), "cam": (63.33, 8.33, 36.80, 4.61)},
+    "sweep-half": {"open-loop": (0.00, 0.00, None, None), "inner-monologue": (18.33, 6.11, 22.00, 2.91),
+                   "doremi": (16.67, 8.95, 16.60, 1.33), "cam": (75.00, 11.55, 16.40, 1.00)},
+    "rope": {"open-loop": (0.00, 0.00, None, None), "inner-monologue": (68.33, 9.52, 41.60, 6.34),
+             "doremi": (58.33, 18.62, 65.80, 7.40), "cam": (76.67, 6.11, 34.60, 2.81)},
+}
+
+__all__ = ["PAPER"]

@@ -1,0 +1,126 @@
+"""The CLIPort benchmark protocol: conditions, methods, seeds x episodes, and episode seeds.
+
+Conditions are the rows of the paper's Table 1 (supplementary "Detailed Performance in CLIPort"):
+stack-in-order with drop probability p in {0, 0.15, 0.3} (no placement noise), with placement noise
+q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the undisturbed
+condition (false alarms are counted there).
+
+Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
+index), so every method sees the same scene and the same disturbance draws for the same key (as far
+as the methods' own actions leave the simulator on the same path).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any
+
+from code_as_monitor.core.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One row: a task with its disturbance parameters. ``undisturbed``: no disturbance at all."""
+
+    id: str
+    task: str
+    params: dict[str, Any] = field(default_factory=dict)
+    label: str = ""
+    undisturbed: bool = False
+
+
+CONDITIONS: tuple[Condition, ...] = (
+    Condition("stack-p0", "stack-in-order", {"p": 0.0}, "Stack in order, p=0.0", undisturbed=True),
+    Condition("stack-p0.15", "stack-in-order", {"p": 0.15}, "Stack in order, p=0.15"),
+    Condition("stack-p0.3", "stack-in-order", {"p": 0.3}, "Stack in order, p=0.3"),
+    Condition("stack-q1", "stack-in-order", {"q": 1.0}, "Stack in order, q=1"),
+    Condition("stack-q2", "stack-in-order", {"q": 2.0}, "Stack in order, q=2"),
+    Condition("stack-q3", "stack-in-order", {"q": 3.0}, "Stack in order, q=3"),
+    Condition("sweep-half", "sweep-half", {}, "Sweep half the blocks"),
+    Condition("rope", "rope-close-square", {}, "Use rope to close the opening square"),
+)
+CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
+
+METHODS: tuple[str, ...] = ("open-loop", "inner-monologue", "doremi", "cam")
+"""Column order: the paper's CLIPort, +Inner Monologue, +DoReMi, +Ours."""
+
+FULL = (5, 12)
+QUICK = (1, 4)
+
+
+def condition(cid: str) -> Condition:
+    """The condition ``cid``; ConfigError naming the known ids otherwise."""
+    if cid not in CONDITION_BY_ID:
+        raise ConfigError(f"unknown condition {cid!r}; known: {', '.join(CONDITION_BY_ID)}")
+    return CONDITION_BY_ID[cid]
+
+
+def episode_seed(condition_id: str, seed: int, episode: int) -> int:
+    """Deterministic 31-bit simulator seed of one episode key."""
+    h = hashlib.sha256(f"{condition_id}|{seed}|{episode}".encode()).digest()
+    return int.from_bytes(h[:4], "big") & 0x7FFFFFFF
+
+
+@dataclass(frozen=True)
+class Job:
+    """One episode to run: method x condition x seed index x episode index."""
+
+    method: str
+    condition: str
+    seed: int
+    episode: int
+
+    @property
+    def key(self) -> tuple[str, str, int, int]:
+        return (self.condition, self.method, self.seed, self.episode)
+
+
+@dataclass
+class BenchSpec:
+    """Which cells and how many episodes. ``options`` are the method settings that change results
+    (backend, doremi k, tracker, ...); a results file keeps one set of options (checked on resume)."""
+
+    methods: list[str] = field(default_factory=lambda: list(METHODS))
+    conditions: list[str] = field(default_factory=lambda: [c.id for c in CONDITIONS])
+    seeds: int = FULL[0]
+    episodes: int = FULL[1]
+    options: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for m in self.methods:
+            if m not in METHODS:
+                raise ConfigError(f"unknown method {m!r}; known: {', '.join(METHODS)}")
+        for c in self.conditions:
+            condition(c)
+        if self.seeds < 1 or self.episodes < 1:
+            raise ConfigError(f"seeds and episodes must be >= 1, got {self.seeds} x {self.episodes}")
+
+    @classmethod
+    def quick(cls, **kw: Any) -> BenchSpec:
+        """1 seed x 4 episodes per condition."""
+        return cls(seeds=QUICK[0], episodes=QUICK[1], **kw)
+
+    def jobs(self) -> list[Job]:
+        """Every episode, ordered so that partial results cover every cell early (episode-major)."""
+        out = []
+        for s in range(self.seeds):
+            for e in range(self.episodes):
+                for c in self.conditions:
+                    for m in self.methods:
+                        out.append(Job(m, c, s, e))
+        return out
+
+
+__all__ = [
+    "CONDITIONS",
+    "CONDITION_BY_ID",
+    "FULL",
+    "METHODS",
+    "QUICK",
+    "BenchSpec",
+    "Condition",
+    "Job",
+    "condition",
+    "episode_seed",
+]

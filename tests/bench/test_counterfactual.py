@@ -1,0 +1,77 @@
+"""Counterfactual rollouts leave the episode exactly where they found it, and see a predicted collapse."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from code_as_monitor.bench.counterfactual import rollout
+from code_as_monitor.core.constraints import Action
+
+pytest.importorskip("pybullet")
+
+BLOCKS = ("red_block", "green_block", "blue_block")
+
+
+def _positions(env) -> np.ndarray:
+    return np.array([env.world.position(n) for n in BLOCKS])
+
+
+def _run(env, action) -> None:
+    env.policy.start(action)
+    while not env.policy.done:
+        env.policy.step()
+
+
+def _offset_plan(env, off: float) -> list[Action]:
+    red = env.world.position("red_block")
+    g = [float(red[0]) + off, float(red[1])]
+    return [Action("pick", {"obj": "green_block"}),
+            Action("place_on", {"obj": "green_block", "target": "red_block", "xy": g}),
+            Action("pick", {"obj": "blue_block"}),
+            Action("place_on", {"obj": "blue_block", "target": "green_block", "xy": [g[0] + off, g[1]]})]
+
+
+def test_rollout_restores_the_world_and_the_episode_continues_unchanged():
+    from code_as_monitor.sim.env import make_env
+
+    kw = dict(seed=5, q=3.0, p=0.3)
+    with make_env("stack-in-order", **kw) as a, make_env("stack-in-order", **kw) as b:
+        for env in (a, b):  # an alarm comes between actions or is followed by a halt
+            _run(env, env.plan[0])
+            _run(env, env.plan[1])
+        t, n_ev, pos = a.world.t, len(a.world.events.events), _positions(a)
+        cf = rollout(a, horizon_s=8.0)
+        assert set(cf) >= {"confirmed", "event", "lead_s", "horizon_s", "success_at_end"}
+        assert a.world.t == t and len(a.world.events.events) == n_ev
+        assert np.allclose(_positions(a), pos, atol=1e-12)
+        for env in (a, b):  # the rest of the plan draws the same noise and drops as without the rollout
+            _run(env, env.plan[2])
+            _run(env, env.plan[3])
+        assert np.allclose(_positions(a), _positions(b), atol=1e-6)
+        assert a.world.events.events == b.world.events.events
+
+
+def test_rollout_sees_the_collapse_an_offset_block_leads_to():
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("stack-in-order", seed=2, disturbed=False) as env:
+        env.plan = _offset_plan(env, 0.015)
+        _run(env, env.plan[0])
+        _run(env, env.plan[1])
+        assert not env.world.events.of_kind("tower_collapsed")
+        cf = rollout(env, horizon_s=15.0)
+        assert not env.world.events.of_kind("tower_collapsed")
+    assert cf["confirmed"] and cf["event"]["kind"] == "tower_collapsed" and cf["lead_s"] > 0
+    assert cf["success_at_end"] is False
+
+
+def test_rollout_does_not_confirm_a_safe_tower():
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("stack-in-order", seed=2, disturbed=False) as env:
+        env.plan = _offset_plan(env, 0.0)
+        _run(env, env.plan[0])
+        _run(env, env.plan[1])
+        cf = rollout(env, horizon_s=15.0)
+    assert not cf["confirmed"] and cf["success_at_end"] is True

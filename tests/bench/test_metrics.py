@@ -1,0 +1,95 @@
+"""Metrics and confidence intervals on constructed results (no simulator)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from code_as_monitor.bench.metrics import (
+    cell_summary,
+    detection,
+    failures,
+    match,
+    mean_ci,
+    seed_level,
+    t_quantile,
+)
+
+
+def _rec(seed: int, success: bool, t: float = 10.0, alarms=(), gt=(), episode: int = 0) -> dict:
+    return {"seed": seed, "episode": episode, "success": success, "sim_time_s": t, "alarms": list(alarms),
+            "gt": list(gt), "vlm": {"calls": 2, "total_tokens": 100}, "wall_time_s": 1.0}
+
+
+def test_t_interval_matches_hand_computation():
+    mean, hw = mean_ci([80.0, 100.0, 90.0, 70.0, 60.0])
+    assert mean == pytest.approx(80.0)
+    sd = math.sqrt(sum((x - 80.0) ** 2 for x in [80, 100, 90, 70, 60]) / 4)
+    assert t_quantile(5) == pytest.approx(2.7764, abs=1e-3)
+    assert hw == pytest.approx(2.7764451 * sd / math.sqrt(5), rel=1e-5)
+
+
+def test_ci_degenerate_cases():
+    assert math.isnan(mean_ci([])[0])
+    m, hw = mean_ci([3.0])
+    assert m == 3.0 and math.isnan(hw)
+    assert mean_ci([5.0, 5.0, 5.0]) == (5.0, 0.0)
+
+
+def test_success_rate_is_mean_of_per_seed_rates():
+    # seed 0: 3/4, seed 1: 1/4, seed 2: 2/4 -> 75, 25, 50
+    recs = []
+    for seed, wins in ((0, 3), (1, 1), (2, 2)):
+        recs += [_rec(seed, i < wins, episode=i) for i in range(4)]
+    s = seed_level(recs, "success")
+    assert s["ci_over"] == "seeds" and s["n"] == 3
+    assert s["mean"] == pytest.approx(50.0)
+    assert s["ci"] == pytest.approx(mean_ci([75.0, 25.0, 50.0])[1])
+
+
+def test_single_seed_interval_is_over_episodes():
+    s = seed_level([_rec(0, ok, episode=i) for i, ok in enumerate([True, False, True, True])], "success")
+    assert s["ci_over"] == "episodes" and s["n"] == 4 and s["mean"] == pytest.approx(75.0)
+
+
+def test_failures_merge_collapses_and_skip_block_fell():
+    gt = [{"t": 2.0, "kind": "drop", "obj": "g"}, {"t": 2.4, "kind": "block_fell", "obj": "g"},
+          {"t": 6.0, "kind": "tower_collapsed", "obj": "b"}, {"t": 6.3, "kind": "tower_collapsed", "obj": "g"},
+          {"t": 9.0, "kind": "tower_collapsed", "obj": "g"}]
+    assert [(f["t"], f["kind"]) for f in failures(gt)] == [(2.0, "drop"), (6.0, "tower_collapsed"),
+                                                           (9.0, "tower_collapsed")]
+
+
+def test_matching_window_and_latency():
+    fails = [{"t": 2.0, "kind": "drop"}, {"t": 20.0, "kind": "drop"}]
+    alarms = [{"t": 2.6}, {"t": 3.0}, {"t": 40.0}]
+    lat, used = match(alarms, fails)
+    assert lat == [pytest.approx(0.6), None]
+    assert used == [True, False, False]
+
+
+def test_detection_recall_false_alarms_and_proactive_precision():
+    drop = {"t": 2.0, "kind": "drop", "obj": "g"}
+    recs = [
+        _rec(0, True, alarms=[{"t": 2.5, "proactive": False}], gt=[drop]),  # detected, 0.5 s
+        _rec(0, False, alarms=[], gt=[drop], episode=1),  # missed
+        _rec(0, True, episode=2, alarms=[
+            {"t": 5.0, "proactive": True, "cf": {"confirmed": True, "lead_s": 1.5}},  # confirmed prediction
+            {"t": 7.0, "proactive": True, "cf": {"confirmed": False, "lead_s": None}},  # unconfirmed -> false
+            {"t": 8.0, "proactive": False},  # nothing happened -> false
+        ]),
+    ]
+    d = detection(recs)
+    assert (d["failures"], d["detected"]) == (2, 1) and d["recall"] == pytest.approx(0.5)
+    assert d["latencies"] == [pytest.approx(0.5)]
+    assert d["unmatched_per_ep"] == pytest.approx(2 / 3)
+    assert (d["proactive_alarms"], d["proactive_confirmed"]) == (2, 1)
+    assert d["proactive_precision"] == pytest.approx(0.5) and d["lead_median"] == pytest.approx(1.5)
+
+
+def test_cell_summary_false_alarms_only_for_undisturbed():
+    recs = [_rec(0, True, alarms=[{"t": 1.0, "proactive": False}])]
+    assert cell_summary(recs, undisturbed=True)["detection"]["false_alarms_per_ep"] == pytest.approx(1.0)
+    assert math.isnan(cell_summary(recs, undisturbed=False)["detection"]["false_alarms_per_ep"])
+    assert cell_summary(recs)["cost"]["calls"] == 2.0

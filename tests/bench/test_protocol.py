@@ -1,0 +1,37 @@
+"""Protocol: conditions, deterministic episode seeds, job order, bad names."""
+
+from __future__ import annotations
+
+import pytest
+
+from code_as_monitor.bench.protocol import CONDITIONS, METHODS, BenchSpec, episode_seed
+from code_as_monitor.core.errors import ConfigError
+
+
+def test_conditions_are_the_paper_rows():
+    assert [c.id for c in CONDITIONS] == ["stack-p0", "stack-p0.15", "stack-p0.3", "stack-q1", "stack-q2",
+                                          "stack-q3", "sweep-half", "rope"]
+    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0"]
+    assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")
+
+
+def test_episode_seed_is_deterministic_and_distinct():
+    assert episode_seed("stack-p0.3", 1, 2) == episode_seed("stack-p0.3", 1, 2)
+    seeds = {episode_seed(c.id, s, e) for c in CONDITIONS for s in range(5) for e in range(12)}
+    assert len(seeds) == len(CONDITIONS) * 60
+
+
+def test_jobs_cover_every_cell_and_quick_size():
+    spec = BenchSpec.quick()
+    jobs = spec.jobs()
+    assert len(jobs) == len(CONDITIONS) * len(METHODS) * 4
+    assert len({j.key for j in jobs}) == len(jobs)
+    assert {(j.condition, j.method) for j in jobs[: len(CONDITIONS) * len(METHODS)]} == {
+        (c.id, m) for c in CONDITIONS for m in METHODS}
+
+
+def test_bad_names_are_config_errors():
+    with pytest.raises(ConfigError, match="no-such"):
+        BenchSpec(methods=["no-such"])
+    with pytest.raises(ConfigError, match="stack-p9"):
+        BenchSpec(conditions=["stack-p9"])
