@@ -1,0 +1,54 @@
+"""``cam report``: Markdown in the paper's layout and a self-contained HTML page from constructed results."""
+
+from __future__ import annotations
+
+import json
+
+from code_as_monitor.bench.report import wall_time
+from code_as_monitor.cli.main import main
+
+
+def _results(path, video=None) -> None:
+    lines = [{"kind": "bench_start", "options": {"backend": "kb"}, "epoch": 1000.0}]
+    for method in ("open-loop", "inner-monologue", "doremi", "cam"):
+        for seed in range(2):
+            for ep in range(2):
+                ok = method != "open-loop" or ep == 0
+                lines.append({
+                    "kind": "episode", "condition": "stack-p0.3", "method": method, "seed": seed, "episode": ep,
+                    "success": ok, "sim_time_s": 10.0 + ep, "wall_time_s": 1.0, "finished_at": 1060.0,
+                    "vlm": {"calls": 4, "total_tokens": 900},
+                    "alarms": [] if method == "open-loop" else [{"t": 2.5, "proactive": False}],
+                    "gt": [{"t": 2.0, "kind": "drop", "obj": "green_block"}],
+                    "video": video if (seed, ep) == (0, 0) else None, "error": None,
+                })
+    path.write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+
+
+def test_report_writes_markdown_and_self_contained_html(tmp_path, capsys):
+    (tmp_path / "runs").mkdir()
+    video = tmp_path / "runs" / "episode.mp4"
+    video.write_bytes(b"x")
+    res = tmp_path / "r.jsonl"
+    _results(res, str(video))
+    assert main(["report", str(res), "--out", str(tmp_path / "rep"), "--print"]) == 0
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "| Stack in order, p=0.3 | 4 | 50.0 ± " in md  # open-loop: per-seed 50 %, 50 % -> CI 0
+    assert "SR +Ours (CaM)" in md and "21.67 ± 8.33" in md  # our row and the paper's
+    assert "R 100% (4/4)" in md and "vqa-standin" in md
+    page = (tmp_path / "rep" / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 3 and "<table>" in page
+    assert 'href="../runs/episode.mp4"' in page
+    assert "1.0 min" in md
+
+
+def test_wall_time_sums_sessions_including_killed_ones():
+    lines = [{"kind": "bench_start", "epoch": 0.0}, {"kind": "episode", "finished_at": 50.0},
+             {"kind": "bench_start", "epoch": 100.0}, {"kind": "episode", "finished_at": 130.0},
+             {"kind": "bench_end"}]
+    assert wall_time(lines) == 80.0
+
+
+def test_missing_results_exit_2(tmp_path, capsys):
+    assert main(["report", str(tmp_path / "none.jsonl")]) == 2
+    assert "no results file" in capsys.readouterr().err
