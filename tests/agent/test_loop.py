@@ -243,3 +243,23 @@ def test_checks_on_stale_elements_give_no_verdict() -> None:
     ep = agent.run("move the block", w, MovePolicy(w))
     assert ep.alarms and ep.alarms[0].t >= stale_until
     assert any(k == "verdicts_unknown" and f["constraints"] for k, f in events)
+
+
+@pytest.mark.parametrize("refresh", [True, False])
+def test_upon_checks_are_judged_on_re_painted_elements_when_the_policy_finishes(refresh: bool) -> None:
+    """The tracker reports the block 15 cm behind where it is; the painter sees it where it is."""
+    w = World()
+    planner = Planner([_subgoal("move block", during=False)])
+    agent, events = _agent(w, planner, refresh_on_done=refresh, max_replans=0)
+    real_step = Tracker.step
+
+    def drifted(self, obs):
+        tr = real_step(self, obs)
+        tr.points = {i: p - np.array([[0.15, 0.0, 0.0]]) for i, p in tr.points.items()}
+        return tr
+
+    agent.tracker.step = drifted.__get__(agent.tracker)
+    agent.painter.build_element = lambda obs, i, spec: Element.point(i, spec.name, [w.x, 0.0, 0.1], (spec.obj, ""))
+    ep = agent.run("move the block", w, MovePolicy(w, stop_at=0.25))
+    assert ep.subgoals[0].outcome == ("success" if refresh else "reactive_failure")
+    assert any(k == "final_check" for k, _ in events)

@@ -56,6 +56,11 @@ class AgentConfig:
         code_retries: regenerations allowed when validation or path coverage fails.
         halt_on_upon: halt a still-moving policy as soon as every upon check holds.
         upon_dwell_frames: consecutive frames the upon checks must hold before completing.
+        refresh_on_done: when the policy finishes, re-paint the subgoal's elements from the current
+            (static) frame before judging the upon checks, so tracker drift accumulated during the motion
+            does not decide the outcome (one painter call per subgoal, like the one at its start).
+        settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
+            or a stale element), wait up to this many frames for one before calling it a failure.
     """
 
     frame_hz: float = 10.0
@@ -66,6 +71,8 @@ class AgentConfig:
     code_retries: int = 2
     halt_on_upon: bool = True
     upon_dwell_frames: int = 2
+    refresh_on_done: bool = True
+    settle_frames: int = 5
 
     def __post_init__(self) -> None:
         if self.frame_hz <= 0:
@@ -324,17 +331,57 @@ class Agent:
                 return rec("success", "; ".join(v.reason for v in upon_v), attempts["n"])
             self._frame(view_state, verdicts, banner)
             if done:
-                bad = [v for v in upon_v if not v.ok]
+                upon_v = self._final_upon(env, policy, elements, painted, history, upon, uses)
                 if not upon:
                     return rec("success", "policy finished", attempts["n"])
+                if len(upon_v) == len(upon) and all(v.ok for v in upon_v):
+                    return rec("success", "; ".join(v.reason for v in upon_v), attempts["n"])
+                bad = [v for v in upon_v if not v.ok]
                 v = bad[0] if bad else None
-                reason = f"{v.constraint_id}: {v.reason}" if v else "upon check faulted"
+                reason = (f"{v.constraint_id}: {v.reason}" if v
+                          else "no verdict on the upon checks (faults or lost elements)")
                 if v is not None:
                     self._alarm(ep, subgoal, v)
                 return rec("reactive_failure", reason, attempts["n"])
             if self._out_of_time(env):
                 policy.halt()
                 return rec("timeout", "time limit reached during the subgoal", attempts["n"])
+
+    def _final_upon(
+        self, env: Environment, policy: Policy, elements: list[Element], painted: Any, history: Any,
+        upon: list[Any], uses: dict[str, set[int]],
+    ) -> list[Verdict]:
+        """Upon verdicts once the policy has finished: re-painted elements, a few frames to get a verdict."""
+        period = 1.0 / self.cfg.frame_hz
+        upon_ids = {c.id for c in upon}
+        verdicts: list[Verdict] = []
+        for attempt in range(self.cfg.settle_frames + 1):
+            if attempt:
+                t_next = env.t + period
+                while env.t + 1e-9 < t_next:
+                    policy.step()  # the policy is done: this holds the arm while time passes
+            obs = env.observe()
+            tr = self.tracker.step(obs)
+            points = dict(tr.points)
+            stale = {i: np.asarray(st) for i, st in tr.stale.items()}
+            if self.cfg.refresh_on_done:
+                for e in elements:
+                    fresh = self.painter.build_element(obs, e.id, painted.specs[e.id])
+                    if fresh is not None and fresh.points.shape == points[e.id].shape:
+                        points[e.id] = fresh.points
+                        stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
+            history.push(obs.t, points)
+            H, ht = history.arrays()
+            stale_ids = {i for i, st in stale.items() if np.any(st)}
+            verdicts = [
+                v for v in self.runtime.step(points, H, ht, obs.t)
+                if v.constraint_id in upon_ids and not v.fault and not (uses[v.constraint_id] & stale_ids)
+            ]
+            if len(verdicts) == len(upon_ids):
+                break
+        self.emit("final_check", t=env.t, verdicts=[v.to_dict() for v in verdicts],
+                  refreshed=self.cfg.refresh_on_done)
+        return verdicts
 
     def _monitor_frame(
         self, env: Environment, elements: list[Element], history: Any
