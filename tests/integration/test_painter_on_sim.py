@@ -7,11 +7,11 @@ import pytest
 
 pytest.importorskip("pybullet")
 
-from code_as_monitor.core import Constraint, ElementSpec, Phase, Subgoal  # noqa: E402
-from code_as_monitor.painter import Painter  # noqa: E402
-from code_as_monitor.perception import SegmenterConfig, make_segmenter  # noqa: E402
-from code_as_monitor.sim.env import make_env  # noqa: E402
-from code_as_monitor.sim.world import WorldConfig  # noqa: E402
+from code_as_monitor.core import Constraint, ElementSpec, Phase, Subgoal
+from code_as_monitor.painter import Painter
+from code_as_monitor.perception import SegmenterConfig, make_segmenter
+from code_as_monitor.sim.env import make_env
+from code_as_monitor.sim.world import WorldConfig
 
 BLOCKS = ("red_block", "green_block", "blue_block")
 
