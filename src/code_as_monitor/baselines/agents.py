@@ -13,6 +13,9 @@
   subgoal early, which is how a never-ending skill gets stopped); when the policy ends, the ``upon``
   constraints are asked once more.
 
+Neither baseline halts the policy when the time limit is reached: running out of time is not a
+decision to stop (the rope task counts a halt within the limit as the robot's decision).
+
 Every "no" is recorded as an :class:`~code_as_monitor.agent.loop.Alarm` (proactive when its
 constraint is), so the benchmark scores all methods' detections the same way.
 """
@@ -100,8 +103,7 @@ class OpenLoopAgent:
             outcome = "success" if policy.done else "timeout"
             ep.subgoals.append(SubgoalRecord(f"{action.skill} {action.args}", action.skill, outcome,
                                              "policy finished" if policy.done else "time limit", t0, env.t))
-            if outcome == "timeout":
-                policy.halt()
+            if outcome == "timeout":  # no halt: running out of time is not a decision to stop
                 ep.stop_reason = "time limit"
                 break
         else:
@@ -224,8 +226,7 @@ class CheckingAgent:
         next_check = env.t + self.period_s if self.period_s else float("inf")
         while not policy.done:
             policy.step()
-            if self._out_of_time(env):
-                policy.halt()
+            if self._out_of_time(env):  # no halt: running out of time is not a decision to stop
                 return rec("timeout", "time limit reached during the subgoal"), self._observe(env)
             if env.t + 1e-9 < next_check or policy.done:
                 continue
