@@ -57,6 +57,20 @@ def _check_options(lines: list[dict[str, Any]], opts: dict[str, Any]) -> None:
                 f"--results file or the same options (now {opts})")
 
 
+def code_version() -> str:
+    """``git describe``-like id of the working tree (``<rev>`` or ``<rev>-dirty``), or ``"unknown"``."""
+    import subprocess
+
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return rev + ("-dirty" if dirty else "")
+
+
 def repair_tail(path: str | Path) -> bool:
     """Cut a truncated last line (a killed writer) so that appends start on a fresh line; True if cut."""
     p = Path(path)
@@ -109,7 +123,7 @@ def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | N
         log.write("bench_start", options=opts.to_dict(), executor=executor.to_dict(),
                   spec={"methods": spec.methods, "conditions": spec.conditions, "seeds": spec.seeds,
                         "episodes": spec.episodes}, pending=len(jobs),
-                  time=time.strftime("%Y-%m-%dT%H:%M:%S"), epoch=round(time.time(), 1))
+                  time=time.strftime("%Y-%m-%dT%H:%M:%S"), epoch=round(time.time(), 1), code=code_version())
         tasks = [(j, opts, _sample_dir(rdir, j)) for j in jobs]
         for job, rec in run_tasks(executor, run_episode, tasks):
             log.write("episode", **rec, finished_at=round(time.time(), 1))
