@@ -135,7 +135,9 @@ class History:
         self.items.append((t, pts))
 
     def arrays(self):
-        return {}, np.array([t for t, _ in self.items])
+        ids = self.items[0][1].keys() if self.items else []
+        H = {i: np.stack([np.asarray(p[i]) for _, p in self.items]) for i in ids}
+        return H, np.array([t for t, _ in self.items])
 
 
 def _subgoal(text: str, during: bool = True, upon: bool = True) -> Subgoal:

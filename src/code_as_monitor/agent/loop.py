@@ -56,9 +56,15 @@ class AgentConfig:
         code_retries: regenerations allowed when validation or path coverage fails.
         halt_on_upon: halt a still-moving policy as soon as every upon check holds.
         upon_dwell_frames: consecutive frames the upon checks must hold before completing.
-        refresh_on_done: when the policy finishes, re-paint the subgoal's elements from the current
-            (static) frame before judging the upon checks, so tracker drift accumulated during the motion
-            does not decide the outcome (one painter call per subgoal, like the one at its start).
+        refresh_on_done: when the policy finishes, re-measure the elements before judging the upon
+            checks, so tracker drift accumulated during the motion does not decide the outcome: an element
+            the tracker saw move more than ``refresh_motion`` during the subgoal (the carried object) is
+            re-painted from the current, static frame; one it saw at rest keeps its measurement from the
+            subgoal start, when it was painted unoccluded (re-painting it now would measure whatever is
+            left visible, e.g. the sides of a block another block now covers). Robot elements follow
+            forward kinematics either way.
+        refresh_motion: metres of tracked centroid motion over the subgoal above which an element counts
+            as moved.
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
     """
@@ -72,6 +78,7 @@ class AgentConfig:
     halt_on_upon: bool = True
     upon_dwell_frames: int = 2
     refresh_on_done: bool = True
+    refresh_motion: float = 0.03
     settle_frames: int = 5
 
     def __post_init__(self) -> None:
@@ -365,7 +372,15 @@ class Agent:
             points = dict(tr.points)
             stale = {i: np.asarray(st) for i, st in tr.stale.items()}
             if self.cfg.refresh_on_done:
+                H0, _ = history.arrays()
                 for e in elements:
+                    if e.owner[0] == "robot" or e.id not in H0:
+                        continue
+                    moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
+                    if moved <= self.cfg.refresh_motion:
+                        points[e.id] = e.points  # at rest all along: its measurement from the subgoal start
+                        stale[e.id] = np.zeros(len(e.points), dtype=bool)
+                        continue
                     fresh = self.painter.build_element(obs, e.id, painted.specs[e.id])
                     if fresh is not None and fresh.points.shape == points[e.id].shape:
                         points[e.id] = fresh.points
