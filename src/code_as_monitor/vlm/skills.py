@@ -20,6 +20,18 @@ DEFAULT_SKILLS: dict[str, str] = {
         'args {"rope": name, "shape": name}: repeated adjustments of rope beads towards the opening of the '
         "shape (it never stops by itself)"
     ),
+    "grasp": (
+        'args {"obj": name, "part": part optional}: open the gripper, descend over the part with the jaws '
+        "across the object's long axis, close, lift to carry height"
+    ),
+    "reorient": (
+        'args {"obj": name, "axis": "vertical"}: tilt the held object until its long axis points straight '
+        "down, tip first"
+    ),
+    "insert": (
+        'args {"obj": name, "target": name}: carry the held object\'s lower end above the target\'s opening, '
+        "lower it in, open the gripper, retreat"
+    ),
 }
 """Skill name -> one-line description of its arguments and behaviour."""
 

@@ -14,7 +14,7 @@ holder frame, within the inner half-size 2.5 cm on both axes) and at least 2 cm 
 Disturbances (config ``disturbance``):
 ``none``; ``a`` / ``grasp_shift``: while the gripper descends to grasp (grasp point within 5 cm of the
 pen body), the pen is slid 6-9 cm and turned 20-60 degrees, so the fingers close on nothing;
-``b`` / ``drop``: in transport (the pen upright in the gripper, 6 cm closer to the holder than when
+``b`` / ``drop``: in transport (the pen upright in the gripper, 3 cm closer to the holder than when
 it became upright) the gripper loses the pen; ``c`` / ``holder_shift``: during insertion (pen tip
 within 1.5 cm horizontally of the opening centre and less than 5 cm above the rim) the holder is slid
 7-9 cm away from the robot's side.
@@ -156,7 +156,7 @@ def _gripper_near(obj: str, dist: float = 0.05) -> Any:
 
 
 class _TransportCheck:
-    """Condition: ``obj`` is held upright and has come 6 cm closer to ``target`` than when it became upright."""
+    """Condition: ``obj`` is held upright and has come 3 cm closer to ``target`` than when it became upright."""
 
     def __init__(self, obj: str, target: str) -> None:
         self.obj, self.target = obj, target
@@ -170,7 +170,7 @@ class _TransportCheck:
         d = float(np.linalg.norm(world.position(self.obj)[:2] - world.position(self.target)[:2]))
         if self.d0 is None:
             self.d0 = d
-        return d < self.d0 - 0.06
+        return d < self.d0 - 0.03
 
 
 def _inserting(task: SlotPen) -> Any:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from code_as_monitor.core.errors import VLMError
+from code_as_monitor.vlm.kb.manip_templates import MANIP_TEMPLATES
 from code_as_monitor.vlm.kb.templates import write_check
 
 
@@ -21,5 +22,6 @@ def write_program(request: dict[str, Any]) -> str:
         ids, parts = c.get("element_ids") or [], c.get("parts") or []
         if len(ids) != len(parts):
             raise VLMError(f"kb: constraint {c.get('id')!r} has {len(ids)} element ids for {len(parts)} parts")
-        chunks.append(write_check(c))
+        key = str(c.get("id", "")).split("_", 1)[0]
+        chunks.append(MANIP_TEMPLATES[key](c) if key in MANIP_TEMPLATES else write_check(c))
     return "\n\n".join(chunks)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from code_as_monitor.core.errors import VLMError
-from code_as_monitor.vlm.kb import skills
+from code_as_monitor.vlm.kb import manip, skills
 from code_as_monitor.vlm.kb.feedback import classify, mentioned
 from code_as_monitor.vlm.kb.tasks import TaskSpec, understand
 from code_as_monitor.vlm.kb.thresholds import DEFAULT_ROPE_BEADS
@@ -114,11 +114,14 @@ def next_subgoal(request: dict[str, Any]) -> dict[str, Any]:
     previous = request.get("previous_subgoal")
     feedback = request.get("feedback")
     task = understand(instruction, objects, DEFAULT_ROPE_BEADS)
+    manip_task = manip.understand(instruction, objects) if task is None else None
+    if manip_task is not None:
+        return manip.next_subgoal(manip_task, previous, feedback)
     if task is None:
         shown = ", ".join(objects[:6]) + (", ..." if len(objects) > 6 else "")
         raise VLMError(
             f"kb: no rule for instruction {instruction!r} with objects [{shown}]; "
-            "the kb is a rule-based stand-in for a VLM covering stack, sweep-half and rope-close tasks "
+            "the kb is a rule-based stand-in for a VLM covering stack, sweep-half, rope-close and slot-pen tasks "
             "(use --backend openai for anything else)"
         )
     if task.family == "stack":

@@ -100,6 +100,11 @@ def understand(instruction: str, objects: list[str], rope_beads: int) -> TaskSpe
 
 def infer_objects(instruction: str) -> list[str]:
     """The simulator's object list for an instruction (used when the caller gives none)."""
+    from code_as_monitor.vlm.kb.manip import infer_objects as manip_objects
+
+    gripper_task = manip_objects(instruction)
+    if gripper_task is not None:
+        return gripper_task
     fam = family_of(instruction)
     if fam == "sweep":
         return [f"block_{i:02d}" for i in range(SWEEP_BLOCKS)] + ["zone", "table"]

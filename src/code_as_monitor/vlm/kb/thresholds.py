@@ -59,3 +59,27 @@ DEFAULT_ROPE_BEADS = 20
 def thresholds(kind: str) -> dict[str, float]:
     """A copy of the thresholds of constraint kind ``kind``."""
     return dict(THRESHOLDS[kind])
+
+# --- gripper tasks (slot-pen, ...): physical tolerances from the object sizes in sim/assets --------------
+THRESHOLDS.update({
+    # grasp, during (proactive): the object stays where it lies until it is between the fingers; a
+    # 2 cm slide means the fingers will close on nothing (the pen is 1.2 cm wide).
+    "steady": {"max_disp": 0.02, "max_dist": 0.03},
+    # grasp, upon: the part's centre is at the grasp point (within 3 cm) and lifted above 5 cm.
+    "lifted": {"max_dist": 0.03, "min_z": 0.05},
+    # reorient/insert, during: the held part's centre stays within 4 cm of the grasp point.
+    "gripped": {"max_dist": 0.04},
+    # reorient, upon: the pen axis within 15 degrees of vertical ("near vertical", as the paper's pan).
+    "upright_turned": {"max_tilt": 0.26},
+    # insert, during: it stays within 25 degrees of vertical while carried (a 14 cm pen tilted more than
+    # that cannot enter a 5 cm opening from 4 cm above it).
+    "upright_carried": {"max_tilt": 0.44},
+    # insert, during (proactive): once the pen tip is lower than 3 cm above the rim it must be within
+    # 1.5 cm (horizontally) of the opening's centre: the opening is 5 cm wide, the pen 1.2 cm.
+    "over": {"approach": 0.03, "max_offset": 0.015},
+    # insert, upon: the tip within 3 cm of the opening's centre (a released pen leans into a corner of
+    # the 5 x 5 cm opening, 3.5 cm from the centre at most) and at least 2 cm below the rim.
+    "inside": {"max_offset": 0.03, "min_depth": 0.02},
+    # insert, upon: the gripper has let go and moved 5 cm away from the pen's centre.
+    "freed": {"release_dist": 0.05},
+})
