@@ -83,3 +83,14 @@ def test_rerun_skips_everything_and_other_options_are_refused(tmp_path):
     for key in ("condition", "method", "seed", "episode", "episode_seed", "success", "sim_time_s", "wall_time_s",
                 "vlm", "alarms", "gt", "video", "finished_at"):
         assert key in rec
+
+
+def test_errored_episodes_are_retried_and_the_last_attempt_counts(tmp_path):
+    results = tmp_path / "res.jsonl"
+    spec = BenchSpec(methods=["open-loop"], conditions=["stack-p0"], seeds=1, episodes=1)
+    broken = {"kind": "episode", "condition": "stack-p0", "method": "open-loop", "seed": 0, "episode": 0,
+              "success": False, "error": "RunError: boom"}
+    results.write_text(json.dumps(broken) + "\n")
+    assert run_bench(spec, results, LocalExecutorConfig(workers=1))["ran"] == 1
+    (rec,) = episode_records(read_results(results))
+    assert rec["error"] is None and rec["success"] is True

@@ -24,7 +24,7 @@ def test_tiny_run_then_resume(tmp_path, capsys):
     assert main(args) == 0
     eps = [json.loads(x) for x in res.read_text().splitlines() if '"episode"' in x]
     assert len(eps) == 1 and eps[0]["success"] is True
-    assert eps[0]["video"] and (tmp_path / "runs" / "stack-p0" / "open-loop" / "episode.mp4").exists()
+    assert eps[0]["video"] and list((tmp_path / "runs" / "r" / "stack-p0").glob("open-loop-*/episode.mp4"))
     capsys.readouterr()
     assert main(args) == 0
     assert "0 episode(s) run, 1 skipped" in capsys.readouterr().out

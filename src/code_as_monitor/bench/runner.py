@@ -8,7 +8,8 @@ Results file lines (``kind`` first):
   flushed as soon as it finishes (``finished_at``: epoch seconds);
 - ``{"kind": "bench_end", "wall_s": ..., "episodes": n}`` when a session completes.
 
-Resume: episodes whose key (condition, method, seed, episode) is already in the file are skipped, so
+Resume: episodes whose key (condition, method, seed, episode) is already in the file without an
+``error`` are skipped (errored ones are retried; the last record of a key is the one reported), so
 a killed run loses nothing that finished (a truncated last line is ignored by ``read_jsonl`` and cut
 before appending). A
 file keeps one set of method options: resuming with different options is a ConfigError.
@@ -25,7 +26,7 @@ from code_as_monitor.bench.episode import EpisodeOptions, run_episode
 from code_as_monitor.bench.executors import ExecutorConfig, LocalExecutorConfig, run_tasks
 from code_as_monitor.bench.protocol import BenchSpec, Job
 from code_as_monitor.core.errors import ConfigError
-from code_as_monitor.core.run_io import EventLog, read_jsonl
+from code_as_monitor.core.run_io import EventLog, new_run_dir, read_jsonl
 
 ProgressFn = Callable[[Job, dict[str, Any], int, int], None]
 
@@ -37,11 +38,11 @@ def read_results(path: str | Path) -> list[dict[str, Any]]:
 
 
 def episode_records(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The episode records, one per key (the first one wins if a key appears twice)."""
+    """The episode records, one per key: the last attempt wins (an errored episode is retried on resume)."""
     seen: dict[tuple, dict[str, Any]] = {}
     for r in lines:
         if r.get("kind") == "episode":
-            seen.setdefault(record_key(r), r)
+            seen[record_key(r)] = r
     return list(seen.values())
 
 
@@ -84,11 +85,12 @@ def repair_tail(path: str | Path) -> bool:
     return True
 
 
-def _sample_dir(runs_dir: Path | None, job: Job) -> Path | None:
-    """The sample video goes with seed 0, episode 0 of every (method, condition) cell."""
+def _sample_dir(runs_dir: Path | None, results: Path, job: Job) -> Path | None:
+    """A fresh directory for the sample video of seed 0, episode 0 of every (method, condition) cell:
+    ``runs_dir/<results stem>/<condition>/<method>-<UTC time>`` (never reused)."""
     if runs_dir is None or job.seed != 0 or job.episode != 0:
         return None
-    return runs_dir / job.condition / job.method
+    return new_run_dir(runs_dir / results.stem / job.condition, prefix=job.method)
 
 
 def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | None = None,
@@ -111,7 +113,7 @@ def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | N
     lines = read_results(results)
     repair_tail(results)
     _check_options(lines, opts.to_dict())
-    have = {record_key(r) for r in episode_records(lines)}
+    have = {record_key(r) for r in episode_records(lines) if not r.get("error")}
     jobs = [j for j in spec.jobs() if j.key not in have]
     skipped = len(spec.jobs()) - len(jobs)
     if on_start is not None:
@@ -124,7 +126,7 @@ def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | N
                   spec={"methods": spec.methods, "conditions": spec.conditions, "seeds": spec.seeds,
                         "episodes": spec.episodes}, pending=len(jobs),
                   time=time.strftime("%Y-%m-%dT%H:%M:%S"), epoch=round(time.time(), 1), code=code_version())
-        tasks = [(j, opts, _sample_dir(rdir, j)) for j in jobs]
+        tasks = [(j, opts, _sample_dir(rdir, Path(results), j)) for j in jobs]
         for job, rec in run_tasks(executor, run_episode, tasks):
             log.write("episode", **rec, finished_at=round(time.time(), 1))
             ran += 1
