@@ -94,9 +94,16 @@ class Painter:
                 point = obs.robot.ee_pose[:3, 3]
             return ee_element(element_id, spec.name, np.asarray(point), owner=(spec.obj, part))
         per_view = []
-        for view in obs.views.values():
-            res = self.segmenter.segment(view, spec, constraint_text)  # type: ignore[attr-defined]
-            mask = res.part_mask if res.part_mask.sum() >= self.min_pixels else res.instance_mask
+        results = [(view, self.segmenter.segment(view, spec, constraint_text))  # type: ignore[attr-defined]
+                   for view in obs.views.values()]
+        # A part seen well enough in some view is built from part masks only: falling back to the whole
+        # object in a view that sees the part too small would pull the element off the part.
+        part_seen = bool(spec.part) and any(r.part_mask.sum() >= self.min_pixels for _, r in results)
+        for view, res in results:
+            if part_seen:
+                mask = res.part_mask
+            else:
+                mask = res.part_mask if res.part_mask.sum() >= self.min_pixels else res.instance_mask
             if spec.part and res.part_mask.sum() < self.min_pixels and res.instance_mask.sum() >= self.min_pixels:
                 log.debug("part %s/%s not segmented in %s; using the whole object", spec.obj, spec.part,
                           view.camera.name)
