@@ -61,6 +61,20 @@ class ClosedLoopConfig:
             raise ConfigError(f"camera_hz must be > 0, got {self.camera_hz!r}")
 
 
+def check_choices(cfg: ClosedLoopConfig) -> None:
+    """Raise UnknownChoiceError/ConfigError naming a bad task, backend, segmenter or tracker (and its
+    options) before anything is created or run."""
+    import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
+    from code_as_monitor.perception import SegmenterConfig, TrackerConfig
+    from code_as_monitor.sim.tasks.base import TaskConfig
+    from code_as_monitor.vlm import VLMBackendConfig
+
+    TaskConfig.from_name(cfg.task, **cfg.task_params)
+    VLMBackendConfig.get_class(cfg.backend)
+    SegmenterConfig.from_name(cfg.segmenter, **cfg.segmenter_options)
+    TrackerConfig.from_name(cfg.tracker, **cfg.tracker_options)
+
+
 def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
     """Let the world run on (the policy halted) until the task's evaluation time, then evaluate."""
     from code_as_monitor.sim.episode import SETTLE_S

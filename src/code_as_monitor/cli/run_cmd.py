@@ -83,10 +83,11 @@ def execute(args: argparse.Namespace, cfg: Any) -> int:
     """Run ``cfg`` into a fresh run directory with the live log; returns the exit code (0 success, 1 failure)."""
     from rich.console import Console
 
-    from code_as_monitor.bench.closed_loop import run_closed_loop
+    from code_as_monitor.bench.closed_loop import check_choices, run_closed_loop
     from code_as_monitor.cli.live_log import LiveLog
     from code_as_monitor.core.run_io import new_run_dir
 
+    check_choices(cfg)  # a bad name is a one-line error before any run directory exists
     console = Console(highlight=False)
     run_dir = new_run_dir(args.runs, prefix=f"{cfg.task}-s{cfg.seed}")
     if cfg.backend == "kb":
