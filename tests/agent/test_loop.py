@@ -216,9 +216,11 @@ def test_time_limit_stops_a_subgoal() -> None:
     w = World()
     planner = Planner([_subgoal("slow move", during=False)])
     agent, _ = _agent(w, planner, time_limit_s=0.5)
-    ep = agent.run("move the block", w, MovePolicy(w, speed=0.01))
+    policy = MovePolicy(w, speed=0.01)
+    ep = agent.run("move the block", w, policy)
     assert ep.subgoals[0].outcome == "timeout"
     assert ep.stop_reason == "time limit"
+    assert policy.halts == 0, "running out of time is not a monitor decision to halt"
 
 
 @pytest.mark.parametrize("field_, value", [("frame_hz", 0), ("max_replans", -1), ("history_len", 1)])

@@ -351,7 +351,8 @@ class Agent:
                     self._alarm(ep, subgoal, v)
                 return rec("reactive_failure", reason, attempts["n"])
             if self._out_of_time(env):
-                policy.halt()
+                # Not a monitor decision: the episode ends here, the policy is not halted (a task that
+                # scores "halted in time" must not count the clock running out as a halt).
                 return rec("timeout", "time limit reached during the subgoal", attempts["n"])
 
     def _final_upon(

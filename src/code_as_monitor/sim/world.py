@@ -99,9 +99,16 @@ class World:
     def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
                    whole: list[tuple[int, int]] | None = None, pose_body: int | None = -2,
                    graspable: bool = False) -> SimObject:
-        """Register a named object. ``pose_body=-2`` means "the first body"."""
-        obj = SimObject(name, list(bodies), dict(parts or {}), bodies[0] if pose_body == -2 else pose_body,
-                        list(whole or []))
+        """Register a named object. ``pose_body=-2`` means "the first body".
+
+        ``whole`` lists the (body, link) pairs labelled as the whole object (part ""); by default every
+        body's base link that is not a named part, so a plain one-body object is segmented too.
+        """
+        parts = dict(parts or {})
+        if whole is None:
+            named = set(parts.values())
+            whole = [(b, -1) for b in bodies if (b, -1) not in named]
+        obj = SimObject(name, list(bodies), parts, bodies[0] if pose_body == -2 else pose_body, list(whole))
         self.objects[name] = obj
         for b in bodies:
             self._body_name[b] = name
