@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import pytest
 
-from code_as_monitor.bench.protocol import CONDITIONS, METHODS, BenchSpec, episode_seed
+from code_as_monitor.bench.protocol import CONDITIONS, METHODS, SUITE_DEFAULTS, SUITES, BenchSpec, episode_seed
 from code_as_monitor.core.errors import ConfigError
 
 
 def test_conditions_are_the_paper_rows():
-    assert [c.id for c in CONDITIONS] == ["stack-p0", "stack-p0.15", "stack-p0.3", "stack-q1", "stack-q2",
-                                          "stack-q3", "sweep-half", "rope"]
-    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0"]
+    assert list(SUITES["cliport"]) == ["stack-p0", "stack-p0.15", "stack-p0.3", "stack-q1", "stack-q2",
+                                       "stack-q3", "sweep-half", "rope"]
+    assert list(SUITES["table2"]) == ["pen-none", "pen-a", "pen-b", "pen-c"]
+    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0", "pen-none"]
     assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")
+    assert BenchSpec().conditions == list(SUITES["cliport"])
+    assert SUITE_DEFAULTS["table2"]["episodes"] == 10  # the paper's 10 runs per setting
 
 
 def test_episode_seed_is_deterministic_and_distinct():
@@ -24,10 +27,11 @@ def test_episode_seed_is_deterministic_and_distinct():
 def test_jobs_cover_every_cell_and_quick_size():
     spec = BenchSpec.quick()
     jobs = spec.jobs()
-    assert len(jobs) == len(CONDITIONS) * len(METHODS) * 4
+    cliport = SUITES["cliport"]
+    assert len(jobs) == len(cliport) * len(METHODS) * 4
     assert len({j.key for j in jobs}) == len(jobs)
-    assert {(j.condition, j.method) for j in jobs[: len(CONDITIONS) * len(METHODS)]} == {
-        (c.id, m) for c in CONDITIONS for m in METHODS}
+    assert {(j.condition, j.method) for j in jobs[: len(cliport) * len(METHODS)]} == {
+        (c, m) for c in cliport for m in METHODS}
 
 
 def test_bad_names_are_config_errors():

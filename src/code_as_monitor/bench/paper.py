@@ -26,6 +26,19 @@ PAPER: dict[str, dict[str, Cell]] = {
                    "doremi": (16.67, 8.95, 16.60, 1.33), "cam": (75.00, 11.55, 16.40, 1.00)},
     "rope": {"open-loop": (0.00, 0.00, None, None), "inner-monologue": (68.33, 9.52, 41.60, 6.34),
              "doremi": (58.33, 18.62, 65.80, 7.40), "cam": (76.67, 6.11, 34.60, 2.81)},
+    # Table 2 (OmniGibson), Slot Pen: 10 runs per setting, no CI given. The open-loop column is the
+    # paper's ReKep policy alone; time (s) is given per task, not per setting, so it repeats per row.
+    "pen-none": {"open-loop": (30.0, 0.0, None, None), "doremi": (40.0, 0.0, 177.84, 0.0),
+                 "cam": (60.0, 0.0, 101.85, 0.0)},
+    "pen-a": {"open-loop": (20.0, 0.0, None, None), "doremi": (10.0, 0.0, 177.84, 0.0),
+              "cam": (50.0, 0.0, 101.85, 0.0)},
+    "pen-b": {"open-loop": (10.0, 0.0, None, None), "doremi": (20.0, 0.0, 177.84, 0.0),
+              "cam": (40.0, 0.0, 101.85, 0.0)},
+    "pen-c": {"open-loop": (10.0, 0.0, None, None), "doremi": (20.0, 0.0, 177.84, 0.0),
+              "cam": (40.0, 0.0, 101.85, 0.0)},
 }
 
-__all__ = ["PAPER"]
+PAPER_TOKENS_K: dict[str, dict[str, float]] = {"slot-pen": {"doremi": 54.54, "cam": 25.82}}
+"""Table 2's token usage per episode (thousands) by task."""
+
+__all__ = ["PAPER", "PAPER_TOKENS_K"]

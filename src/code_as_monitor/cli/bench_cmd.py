@@ -27,6 +27,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("bench", help="run the CLIPort benchmark (methods x conditions), resumable",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="1 seed x 4 episodes per condition")
+    p.add_argument("--suite", choices=("cliport", "table2"), default="cliport",
+                   help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
+                        "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam)")
     p.add_argument("--seeds", type=int, default=None, help="seeds per cell (default 5, quick 1)")
     p.add_argument("--episodes", type=int, default=None, help="episodes per seed (default 12, quick 4)")
     p.add_argument("--methods", type=_csv, default=None, help="comma list (default: all four)")
@@ -51,7 +54,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from code_as_monitor.bench.executors import ExecutorConfig
-    from code_as_monitor.bench.protocol import CONDITIONS, METHODS, QUICK, BenchSpec
+    from code_as_monitor.bench.protocol import CONDITIONS, METHODS, QUICK, SUITE_DEFAULTS, SUITES, BenchSpec
     from code_as_monitor.bench.runner import run_bench
 
     if args.list:
@@ -59,12 +62,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"{c.id:12s} {c.task} {c.params}{'  (undisturbed)' if c.undisturbed else ''}")
         print("methods:", ", ".join(METHODS))
         return 0
-    seeds = args.seeds or (QUICK[0] if args.quick else 5)
-    episodes = args.episodes or (QUICK[1] if args.quick else 12)
-    results = args.results or Path("results/cliport-quick.jsonl" if args.quick else "results/cliport.jsonl")
+    suite = SUITE_DEFAULTS[args.suite]
+    seeds = args.seeds or (QUICK[0] if args.quick else suite["seeds"])
+    episodes = args.episodes or (QUICK[1] if args.quick else suite["episodes"])
+    results = args.results or Path(f"results/{args.suite}{'-quick' if args.quick else ''}.jsonl")
     options = {"backend": args.backend, "backend_options": args.backend_options, "doremi_k_s": args.doremi_k,
                "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual}
-    kw = {}
+    kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
     if args.methods:
         kw["methods"] = args.methods
     if args.conditions:
