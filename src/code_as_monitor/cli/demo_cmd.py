@@ -14,7 +14,7 @@ import argparse
 from code_as_monitor.cli.run_cmd import add_common, config_from_args, execute
 
 DEMO_TASK = "stack-in-order"
-DEMO_SEED = 1
+DEMO_SEED = 10
 DEMO_PARAMS = {"p": 0.3}
 
 
