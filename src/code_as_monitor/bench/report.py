@@ -84,7 +84,10 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
         row += [_pm(cells[(c.id, m)]["time"]) if (c.id, m) in cells else "—" for m in ms if m != "open-loop"]
         out.append("| " + " | ".join(row) + " |")
     if with_paper:
-        out += ["", "Paper (supplementary table, 5 seeds x 12 episodes):", "",
+        caption = ("Paper (Table 2, OmniGibson, 10 runs per setting; open-loop = ReKep alone; time per task):"
+                   if cs and all(c.suite == "table2" for c in cs)
+                   else "Paper (supplementary table, 5 seeds x 12 episodes):")
+        out += ["", caption, "",
                 "| Condition | " + " | ".join(f"SR {HEADERS[m]}" for m in METHODS) + " | "
                 + " | ".join(f"Time {HEADERS[m]}" for m in METHODS[1:]) + " |",
                 "|---|" + "---|" * (2 * len(METHODS) - 1)]
@@ -177,7 +180,9 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     s = summarise(results)
-    md = f"# CLIPort benchmark\n\nResults: `{results}`\n\n" + markdown(s)
+    title = "Table 2 benchmark" if s["conditions"] and all(c.suite == "table2" for c in s["conditions"]) \
+        else "CLIPort benchmark"
+    md = f"# {title}\n\nResults: `{results}`\n\n" + markdown(s)
     (out / "report.md").write_text(md, encoding="utf-8")
     imgs = plots(s) if s["cells"] else {}
     videos = []
