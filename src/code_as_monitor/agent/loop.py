@@ -29,6 +29,11 @@ log = logging.getLogger(__name__)
 SUCCESS_FEEDBACK = "success"
 """Feedback after a completed subgoal (the same token as ``vlm.schemas.SUCCESS_FEEDBACK``)."""
 
+DEFAULT_MAX_REPLANS = 30
+"""Failed subgoals allowed per episode: one bound for every method (CaM and the baselines)."""
+DEFAULT_MAX_SUBGOALS = 80
+"""Subgoals allowed per episode; the task's time limit is normally what ends an episode."""
+
 
 class Environment(Protocol):
     """What the agent needs from the world (a simulator or a robot driver)."""
@@ -70,8 +75,8 @@ class AgentConfig:
     """
 
     frame_hz: float = 10.0
-    max_replans: int = 8
-    max_subgoals: int = 80
+    max_replans: int = DEFAULT_MAX_REPLANS
+    max_subgoals: int = DEFAULT_MAX_SUBGOALS
     time_limit_s: float | None = None
     history_len: int = 64
     code_retries: int = 2
@@ -193,49 +198,12 @@ class Agent:
     # ------------------------------------------------------------------------------------------
     def run(self, instruction: str, env: Environment, policy: Policy) -> EpisodeLog:
         """Run the task until the planner says it is complete, replans run out, or time is up."""
-        ep = EpisodeLog(instruction)
-        previous: Subgoal | None = None
-        feedback: str | None = None
-        self.emit("episode_start", t=env.t, instruction=instruction)
-        for index in range(self.cfg.max_subgoals):
-            if self._out_of_time(env):
-                ep.stop_reason = "time limit"
-                break
-            obs = env.observe()
-            images = {n: v.rgb for n, v in obs.views.items()}
-            try:
-                subgoal = self.planner.next_subgoal(instruction, images, obs.objects, previous, feedback)
-            except VLMError as exc:
-                ep.stop_reason = f"planner failed: {exc}"
-                self.emit("planner_error", t=env.t, error=str(exc))
-                break
-            if subgoal.done:
-                ep.finished = True
-                ep.stop_reason = "planner: task complete"
-                self.emit("task_complete", t=env.t)
-                break
-            self.emit("subgoal", t=env.t, index=index, subgoal=subgoal.to_dict())
-            record = self._run_subgoal(index, subgoal, obs, env, policy, ep)
-            ep.subgoals.append(record)
-            self.emit("subgoal_end", t=env.t, **record.to_dict())
-            previous = subgoal
-            if record.outcome == "success":
-                # The planner's success token; the upon reasons are in the event log.
-                feedback = SUCCESS_FEEDBACK
-            else:
-                feedback = f"failure: {record.reason}"
-                ep.replans += 1
-                if ep.replans > self.cfg.max_replans:
-                    ep.stop_reason = f"too many re-plans ({ep.replans})"
-                    break
-            if record.outcome == "timeout":
-                ep.stop_reason = "time limit"
-                break
-        else:
-            ep.stop_reason = f"subgoal bound ({self.cfg.max_subgoals}) reached"
-        ep.t_end = env.t
-        self.emit("episode_end", t=env.t, finished=ep.finished, stop_reason=ep.stop_reason, replans=ep.replans)
-        return ep
+        return run_plan_loop(
+            instruction, env, self.planner, observe=env.observe,
+            run_subgoal=lambda i, sg, obs, ep: self._run_subgoal(i, sg, obs, env, policy, ep),
+            max_subgoals=self.cfg.max_subgoals, max_replans=self.cfg.max_replans,
+            out_of_time=lambda: self._out_of_time(env), emit=self.emit,
+        )
 
     # ------------------------------------------------------------------------------------------
     def _out_of_time(self, env: Environment) -> bool:
@@ -429,4 +397,78 @@ class Agent:
         self.emit("alarm", **alarm.to_dict())
 
 
-__all__ = ["Agent", "AgentConfig", "Alarm", "Environment", "EpisodeLog", "SubgoalRecord"]
+def run_plan_loop(
+    instruction: str,
+    env: Environment,
+    planner: Any,
+    *,
+    observe: Callable[[], Observation],
+    run_subgoal: Callable[[int, Subgoal, Observation, EpisodeLog], SubgoalRecord],
+    max_subgoals: int,
+    max_replans: int,
+    out_of_time: Callable[[], bool],
+    emit: EventFn = _noop_event,
+) -> EpisodeLog:
+    """The episode loop every closed-loop method shares (paper eq. 1 in a loop).
+
+    Ask the planner for the next subgoal from the observation, the previous subgoal and the feedback;
+    run it with ``run_subgoal`` (the method: CaM's monitor, or a baseline's VQA checks); feed back
+    ``"success"`` or ``"failure: <reason>"``; stop when the planner says the task is complete, after
+    ``max_replans`` failed subgoals, at the time limit, or after ``max_subgoals``.
+    """
+    ep = EpisodeLog(instruction)
+    previous: Subgoal | None = None
+    feedback: str | None = None
+    emit("episode_start", t=env.t, instruction=instruction)
+    for index in range(max_subgoals):
+        if out_of_time():
+            ep.stop_reason = "time limit"
+            break
+        obs = observe()
+        images = {n: v.rgb for n, v in obs.views.items()}
+        try:
+            subgoal = planner.next_subgoal(instruction, images, obs.objects, previous, feedback)
+        except VLMError as exc:
+            ep.stop_reason = f"planner failed: {exc}"
+            emit("planner_error", t=env.t, error=str(exc))
+            break
+        if subgoal.done:
+            ep.finished = True
+            ep.stop_reason = "planner: task complete"
+            emit("task_complete", t=env.t)
+            break
+        emit("subgoal", t=env.t, index=index, subgoal=subgoal.to_dict())
+        record = run_subgoal(index, subgoal, obs, ep)
+        ep.subgoals.append(record)
+        emit("subgoal_end", t=env.t, **record.to_dict())
+        previous = subgoal
+        if record.outcome == "success":
+            # The planner's success token; the upon reasons are in the event log.
+            feedback = SUCCESS_FEEDBACK
+        else:
+            feedback = f"failure: {record.reason}"
+            ep.replans += 1
+            if ep.replans > max_replans:
+                ep.stop_reason = f"too many re-plans ({ep.replans})"
+                break
+        if record.outcome == "timeout":
+            ep.stop_reason = "time limit"
+            break
+    else:
+        ep.stop_reason = f"subgoal bound ({max_subgoals}) reached"
+    ep.t_end = env.t
+    emit("episode_end", t=env.t, finished=ep.finished, stop_reason=ep.stop_reason, replans=ep.replans)
+    return ep
+
+
+__all__ = [
+    "DEFAULT_MAX_REPLANS",
+    "DEFAULT_MAX_SUBGOALS",
+    "Agent",
+    "AgentConfig",
+    "Alarm",
+    "Environment",
+    "EpisodeLog",
+    "SubgoalRecord",
+    "run_plan_loop",
+]

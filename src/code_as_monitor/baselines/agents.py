@@ -27,9 +27,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from code_as_monitor.agent.loop import SUCCESS_FEEDBACK, Alarm, EpisodeLog, SubgoalRecord
+from code_as_monitor.agent.loop import (
+    DEFAULT_MAX_REPLANS,
+    DEFAULT_MAX_SUBGOALS,
+    Alarm,
+    EpisodeLog,
+    SubgoalRecord,
+    run_plan_loop,
+)
 from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal
-from code_as_monitor.core.errors import VLMError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.core.policy import Policy
 from code_as_monitor.core.registry import Choice, check_positive
@@ -42,10 +48,10 @@ FrameFn = Callable[[Observation, str], None]
 
 @dataclass
 class BaselineConfig(Choice):
-    """Base of the baseline configs. ``max_replans``/``max_subgoals`` as in ``AgentConfig``."""
+    """Base of the baseline configs. ``max_replans``/``max_subgoals``: the same bounds as CaM's agent."""
 
-    max_replans: int = 8
-    max_subgoals: int = 24
+    max_replans: int = DEFAULT_MAX_REPLANS
+    max_subgoals: int = DEFAULT_MAX_SUBGOALS
 
     def __post_init__(self) -> None:
         check_positive(type(self).__name__, "max_replans", self.max_replans, allow_zero=True)
@@ -153,47 +159,17 @@ class CheckingAgent:
         return obs
 
     def run(self, instruction: str, env: Any, policy: Policy) -> EpisodeLog:
-        ep = EpisodeLog(instruction)
-        previous: Subgoal | None = None
-        feedback: str | None = None
-        self.emit("episode_start", t=env.t, instruction=instruction)
-        obs = self._observe(env)
-        for index in range(self.cfg.max_subgoals):
-            if self._out_of_time(env):
-                ep.stop_reason = "time limit"
-                break
-            images = {n: v.rgb for n, v in obs.views.items()}
-            try:
-                subgoal = self.planner.next_subgoal(instruction, images, obs.objects, previous, feedback)
-            except VLMError as exc:
-                ep.stop_reason = f"planner failed: {exc}"
-                self.emit("planner_error", t=env.t, error=str(exc))
-                break
-            if subgoal.done:
-                ep.finished, ep.stop_reason = True, "planner: task complete"
-                self.emit("task_complete", t=env.t)
-                break
-            self.emit("subgoal", t=env.t, index=index, subgoal=subgoal.to_dict())
-            record, obs = self._run_subgoal(subgoal, env, policy, ep)
-            ep.subgoals.append(record)
-            self.emit("subgoal_end", t=env.t, **record.to_dict())
-            previous = subgoal
-            if record.outcome == "success":
-                feedback = SUCCESS_FEEDBACK
-            else:
-                feedback = f"failure: {record.reason}"
-                ep.replans += 1
-                if ep.replans > self.cfg.max_replans:
-                    ep.stop_reason = f"too many re-plans ({ep.replans})"
-                    break
-            if record.outcome == "timeout":
-                ep.stop_reason = "time limit"
-                break
-        else:
-            ep.stop_reason = f"subgoal bound ({self.cfg.max_subgoals}) reached"
-        ep.t_end = env.t
-        self.emit("episode_end", t=env.t, finished=ep.finished, stop_reason=ep.stop_reason, replans=ep.replans)
-        return ep
+        last = {"obs": self._observe(env)}  # renders only what it uses: reuse the subgoal's last frame
+
+        def run_subgoal(index: int, subgoal: Subgoal, obs: Observation, ep: EpisodeLog) -> SubgoalRecord:
+            record, last["obs"] = self._run_subgoal(subgoal, env, policy, ep)
+            return record
+
+        return run_plan_loop(
+            instruction, env, self.planner, observe=lambda: last["obs"], run_subgoal=run_subgoal,
+            max_subgoals=self.cfg.max_subgoals, max_replans=self.cfg.max_replans,
+            out_of_time=lambda: self._out_of_time(env), emit=self.emit,
+        )
 
     def _ask(self, constraints: list[Constraint], obs: Observation, subgoal: Subgoal,
              ep: EpisodeLog) -> list[tuple[Constraint, Any]]:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from code_as_monitor.agent.loop import DEFAULT_MAX_REPLANS
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.run_io import EventLog, write_json
 
@@ -52,7 +53,7 @@ class ClosedLoopConfig:
     height: int = 240
     camera_hz: float = 10.0
     video: bool = True
-    max_replans: int = 30
+    max_replans: int = DEFAULT_MAX_REPLANS
 
     def __post_init__(self) -> None:
         if self.width < 32 or self.height < 32:
