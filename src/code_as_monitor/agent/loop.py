@@ -194,6 +194,7 @@ class Agent:
         self.emit = on_event or _noop_event
         self.on_frame = on_frame
         self.on_prompt = on_prompt
+        self._verdict_state: dict[str, str] = {}  # constraint id -> "ok" | "violated" | "fault"
 
     # ------------------------------------------------------------------------------------------
     def run(self, instruction: str, env: Environment, policy: Policy) -> EpisodeLog:
@@ -260,6 +261,7 @@ class Agent:
         next_frame = env.t + period
         upon = subgoal.upon()
         upon_streak = 0
+        self._verdict_state = {}
         uses = {c.id: set(c.element_ids) for c in subgoal.constraints}
         unknown_before: set[str] = set()
         policy.start(subgoal.action)  # type: ignore[arg-type]
@@ -277,7 +279,7 @@ class Agent:
                 return rec("error", f"perception failed: {exc}", attempts["n"])
             # A check that reads a stale element (lost by the tracker, not yet re-acquired) has no
             # verdict this frame: it can neither raise an alarm nor complete the subgoal.
-            stale_ids = {i for i, st in view_state[2].items() if np.any(st)}
+            stale_ids = {i for i, st in view_state[2].stale.items() if np.any(st)}
             unknown = {cid for cid, ids in uses.items() if ids & stale_ids}
             if unknown != unknown_before:
                 self.emit("verdicts_unknown", t=env.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))
@@ -369,26 +371,30 @@ class Agent:
 
     def _monitor_frame(
         self, env: Environment, elements: list[Element], history: Any
-    ) -> tuple[list[Verdict], tuple[Observation, list[Element], dict[int, np.ndarray]]]:
+    ) -> tuple[list[Verdict], tuple[Observation, list[Element], Any]]:
+        """One monitored frame: observe, track, push the history, evaluate every check in the sandbox.
+
+        Verdict events are written when a check's state (ok / violated / fault) changes, not every frame.
+        """
         obs = env.observe()
         tr = self.tracker.step(obs)
         history.push(obs.t, tr.points)
         H, ht = history.arrays()
         verdicts = self.runtime.step(tr.points, H, ht, obs.t)
-        current = []
-        for e in elements:
-            pts = tr.points.get(e.id, e.points)
-            current.append(Element(e.id, e.name, e.kind, pts, e.owner, e.color))
         for v in verdicts:
-            if not v.ok:
+            state = "fault" if v.fault else ("ok" if v.ok else "violated")
+            if self._verdict_state.get(v.constraint_id) != state:
+                self._verdict_state[v.constraint_id] = state
                 self.emit("verdict", **v.to_dict())
-        return verdicts, (obs, current, tr.stale)
+        return verdicts, (obs, elements, tr)
 
-    def _frame(self, state: tuple[Observation, list[Element], dict[int, np.ndarray]], verdicts: list[Verdict],
-               banner: str) -> None:
-        if self.on_frame is not None:
-            obs, current, stale = state
-            self.on_frame(obs, current, stale, verdicts, banner)
+    def _frame(self, state: tuple[Observation, list[Element], Any], verdicts: list[Verdict], banner: str) -> None:
+        """Hand the frame to ``on_frame`` (videos, live views) with the elements at their tracked positions."""
+        if self.on_frame is None:
+            return
+        obs, elements, tr = state
+        current = [Element(e.id, e.name, e.kind, tr.points.get(e.id, e.points), e.owner, e.color) for e in elements]
+        self.on_frame(obs, current, tr.stale, verdicts, banner)
 
     def _alarm(self, ep: EpisodeLog, subgoal: Subgoal, v: Verdict) -> None:
         c = next((c for c in subgoal.constraints if c.id == v.constraint_id), None)
