@@ -135,7 +135,7 @@ def push_into_region(blocks: tuple[str, ...], region: str) -> tuple[list[dict[st
 
 
 def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str, Any]]:
-    """``close_shape``: upon, resting rope beads lie all along the opening between corner_3 and corner_0."""
+    """``close_shape``: upon, resting rope beads lie along (nearly) all of the opening between corner_3 and corner_0."""
     thr = thresholds("rope_cover")
     parts = [
         {"name": f"{shape} opening corner_0", "obj": shape, "part": "corner_0", "kind": "point"},
@@ -144,8 +144,9 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str,
     return [
         _c(
             "rope_covers_opening",
-            f"{nice(rope)} closes the opening of {nice(shape)}: every point along the opening (corner_3 to "
-            f"corner_0) has a resting rope bead within {thr['max_gap'] * 100:.1f} cm",
+            f"{nice(rope)} closes the opening of {nice(shape)}: at least {thr['min_fraction'] * 100:.0f} % of "
+            f"the opening (corner_3 to corner_0, corners included) has a resting rope bead within "
+            f"{thr['max_gap'] * 100:.1f} cm",
             "upon", False, thr, parts,
         )
     ]

@@ -179,19 +179,19 @@ def covers(c: Spec) -> str:
     c0, c3 = c["element_ids"][:2]
     beads = tuple(c["element_ids"][2:])
     th = c["thresholds"]
-    gap, n, mz = _f(th["max_gap"]), int(th["samples"]), _f(th["max_z"])
+    gap, n, mz, frac = _f(th["max_gap"]), int(th["samples"]), _f(th["max_z"]), _f(th["min_fraction"])
     body = f"""
     a = centroid(E[{c0}])
     b = centroid(E[{c3}])
-    s = (np.arange({n}) + 0.5) / {n}
+    s = np.linspace(0.0, 1.0, {n})
     samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
     beads = np.array([centroid(E[i]) for i in {beads!r}])
     carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
     d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
-    worst = np.max(np.min(d, axis=1))
-    if worst <= {gap}:
-        return True, "the rope closes the opening (largest gap %.3f m)" % worst, {gap} - worst
-    return False, "the opening of the square is not enclosed: a point of the opening is %.3f m from the nearest resting rope bead" % worst, {gap} - worst
+    covered = float(np.mean(np.min(d, axis=1) <= {gap}))
+    if covered >= {frac}:
+        return True, "the rope closes the opening (%.0f%% of it within {gap} m of a resting bead)" % (100 * covered), covered - {frac} + 0.5 / {n}
+    return False, "the opening of the square is not enclosed: only %.0f%% of it is within {gap} m of a resting rope bead" % (100 * covered), covered - {frac} + 0.5 / {n}
 """
     return _fn(c, body)
 

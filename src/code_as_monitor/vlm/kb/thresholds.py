@@ -43,10 +43,12 @@ THRESHOLDS: dict[str, dict[str, float]] = {
         # still carry a few blocks in, so halting at the centre would drift toward the upper bound.
         "aim_below_centre": 0.5,  # fraction of the half-band
     },
-    # close_shape: the rope lies along the whole opening (enclosed, not a perfect square): every one of
-    # `samples` points spread along the opening has a resting bead within `max_gap` horizontally
-    # (a gap narrower than a 2.5 cm block cannot let anything through); beads above `max_z` are carried.
-    "rope_cover": {"max_gap": 0.025, "samples": 10, "max_z": 0.03},
+    # close_shape: the rope lies along the opening (enclosed, not a perfect square): at least
+    # `min_fraction` of `samples` points spread along the opening, both corners included, have a
+    # resting bead within `max_gap` horizontally (a gap narrower than a 2.5 cm block cannot let
+    # anything through); beads above `max_z` (two bead radii plus 1 cm) are being carried, not resting.
+    # The same definition as the simulator's "enclosed" (11 samples, 90 %, 2.5 cm).
+    "rope_cover": {"max_gap": 0.025, "samples": 11, "min_fraction": 0.9, "max_z": 0.026},
     # Growth (no simulator skill uses these yet): keep-upright, keep-level.
     "upright": {"max_tilt": 0.26},  # ~15 degrees
     "level": {"max_tilt": 0.26},  # the paper's pan example: normal within 15 degrees of z
@@ -82,4 +84,26 @@ THRESHOLDS.update({
     "inside": {"max_offset": 0.03, "min_depth": 0.02},
     # insert, upon: the gripper has let go and moved 5 cm away from the pen's centre.
     "freed": {"release_dist": 0.05},
+})
+
+# --- stow-book (line level): from the sizes in sim/assets/book.urdf and bookshelf.urdf ----------------
+THRESHOLDS.update({
+    # grasp, during (proactive): the spine keeps its direction (within 15 degrees) until it is gripped;
+    # a book turned more than that under the jaws is held skewed and cannot be turned upright. It lies
+    # flat until then: the spine within 20 degrees of horizontal.
+    "aligned": {"max_turn": 0.26, "max_slope": 0.35},
+    # stow, during: the book (its centre) stays within 4 cm of the grasp point until its lower end is
+    # in the slot: centre within 4 cm of the slot's centre (13 cm slot, 10 cm wide book) and 3 cm below
+    # the rim.
+    "conveyed": {"max_dist": 0.04, "max_offset": 0.04, "min_depth": 0.03},
+    # stow, during: a held book stays within 25 degrees of vertical (a 14 cm book tilted more than that
+    # cannot stand in a 13 cm slot); 4 cm from the grasp point means it is not held.
+    "poised": {"max_tilt": 0.44, "max_dist": 0.04},
+    # stow, during (proactive): once the book's lower end is lower than 3 cm above the rim, its centre
+    # must be within 3 cm (horizontally) of the slot's centre.
+    "aimed": {"approach": 0.03, "max_offset": 0.03},
+    # stow, upon: the lower end at least 3 cm below the rim, the centre within 4 cm of the slot's centre.
+    "shelved": {"max_offset": 0.04, "min_depth": 0.03},
+    # stow, upon: the spine within 20 degrees of vertical (the task's success tolerance).
+    "standing": {"max_tilt": 0.35},
 })
