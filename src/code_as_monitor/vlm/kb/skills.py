@@ -146,7 +146,7 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str,
             "rope_covers_opening",
             f"{nice(rope)} closes the opening of {nice(shape)}: at least {thr['min_fraction'] * 100:.0f} % of "
             f"the opening (corner_3 to corner_0, corners included) has a resting rope bead within "
-            f"{thr['max_gap'] * 100:.1f} cm",
+            f"{thr['max_gap'] * 100:.1f} cm, steadily for {thr['stable_s']:g} s",
             "upon", False, thr, parts,
         )
     ]

@@ -180,18 +180,21 @@ def covers(c: Spec) -> str:
     beads = tuple(c["element_ids"][2:])
     th = c["thresholds"]
     gap, n, mz, frac = _f(th["max_gap"]), int(th["samples"]), _f(th["max_z"]), _f(th["min_fraction"])
+    win = _f(th["stable_s"])
     body = f"""
-    a = centroid(E[{c0}])
-    b = centroid(E[{c3}])
     s = np.linspace(0.0, 1.0, {n})
-    samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
-    beads = np.array([centroid(E[i]) for i in {beads!r}])
-    carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
-    d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
-    covered = float(np.mean(np.min(d, axis=1) <= {gap}))
+    covered = 1.0
+    for j in np.nonzero(H.t >= t - {win})[0]:
+        a = centroid(H[{c0}][j])
+        b = centroid(H[{c3}][j])
+        samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
+        beads = np.array([centroid(H[i][j]) for i in {beads!r}])
+        carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
+        d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
+        covered = min(covered, float(np.mean(np.min(d, axis=1) <= {gap})))
     if covered >= {frac}:
-        return True, "the rope closes the opening (%.0f%% of it within {gap} m of a resting bead)" % (100 * covered), covered - {frac} + 0.5 / {n}
-    return False, "the opening of the square is not enclosed: only %.0f%% of it is within {gap} m of a resting rope bead" % (100 * covered), covered - {frac} + 0.5 / {n}
+        return True, "the rope has closed the opening for {win} s (at least %.0f%% of it within {gap} m of a resting bead)" % (100 * covered), covered - {frac} + 0.5 / {n}
+    return False, "the opening of the square is not enclosed steadily: over the last {win} s as little as %.0f%% of it was within {gap} m of a resting rope bead" % (100 * covered), covered - {frac} + 0.5 / {n}
 """
     return _fn(c, body)
 
