@@ -36,9 +36,29 @@ PAPER: dict[str, dict[str, Cell]] = {
               "cam": (40.0, 0.0, 101.85, 0.0)},
     "pen-c": {"open-loop": (10.0, 0.0, None, None), "doremi": (20.0, 0.0, 177.84, 0.0),
               "cam": (40.0, 0.0, 101.85, 0.0)},
+    # Table 2, Stow Book (same layout).
+    "book-none": {"open-loop": (40.0, 0.0, None, None), "doremi": (50.0, 0.0, 127.17, 0.0),
+                  "cam": (70.0, 0.0, 93.08, 0.0)},
+    "book-a": {"open-loop": (30.0, 0.0, None, None), "doremi": (40.0, 0.0, 127.17, 0.0),
+               "cam": (60.0, 0.0, 93.08, 0.0)},
+    "book-b": {"open-loop": (30.0, 0.0, None, None), "doremi": (20.0, 0.0, 127.17, 0.0),
+               "cam": (70.0, 0.0, 93.08, 0.0)},
+    "book-c": {"open-loop": (20.0, 0.0, None, None), "doremi": (40.0, 0.0, 127.17, 0.0),
+               "cam": (60.0, 0.0, 93.08, 0.0)},
+    # Table 2, Pour Tea (no simulator task yet); DoReMi reports no time for it.
+    "tea-none": {"open-loop": (20.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
+                 "cam": (50.0, 0.0, 174.55, 0.0)},
+    "tea-a": {"open-loop": (20.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
+              "cam": (40.0, 0.0, 174.55, 0.0)},
+    "tea-b": {"open-loop": (20.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
+              "cam": (40.0, 0.0, 174.55, 0.0)},
+    "tea-c": {"open-loop": (10.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
+              "cam": (30.0, 0.0, 174.55, 0.0)},
 }
 
-PAPER_TOKENS_K: dict[str, dict[str, float]] = {"slot-pen": {"doremi": 54.54, "cam": 25.82}}
+PAPER_TOKENS_K: dict[str, dict[str, float]] = {"slot-pen": {"doremi": 54.54, "cam": 25.82},
+                                               "stow-book": {"doremi": 38.67, "cam": 18.67},
+                                               "pour-tea": {"cam": 44.19}}
 """Table 2's token usage per episode (thousands) by task."""
 
 __all__ = ["PAPER", "PAPER_TOKENS_K"]

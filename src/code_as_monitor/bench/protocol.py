@@ -4,7 +4,7 @@ Two suites. ``cliport``: the rows of the paper's Table 1 (supplementary "Detaile
 CLIPort"): stack-in-order with drop probability p in {0, 0.15, 0.3} (no placement noise), with
 placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
-(OmniGibson: None, (a), (b), (c) per task, 10 runs each); only slot-pen exists in our simulator so far.
+(OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen and stow-book exist in our simulator so far.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -47,6 +47,13 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("pen-b", "slot-pen", {"disturbance": "b"}, "Slot pen, (b) pen dropped in transport",
               suite="table2"),
     Condition("pen-c", "slot-pen", {"disturbance": "c"}, "Slot pen, (c) holder moved during insertion",
+              suite="table2"),
+    Condition("book-none", "stow-book", {}, "Stow book, None", undisturbed=True, suite="table2"),
+    Condition("book-a", "stow-book", {"disturbance": "a"}, "Stow book, (a) book turned while grasping",
+              suite="table2"),
+    Condition("book-b", "stow-book", {"disturbance": "b"}, "Stow book, (b) book tilted in transport",
+              suite="table2"),
+    Condition("book-c", "stow-book", {"disturbance": "c"}, "Stow book, (c) book laid flat after placement",
               suite="table2"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}

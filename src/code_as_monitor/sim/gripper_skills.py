@@ -15,6 +15,8 @@ Skills (``Action.skill``, ``Action.args``):
 - ``insert {"obj": name, "target": name}``: carry the held object's lowest end above the target's
   opening (``rim`` part), descend until that end is ``INSERT_DEPTH`` above the target's floor,
   open, retreat and park.
+- ``stow {"obj": name, "target": name}``: the same motion into the target's ``slot`` part (a book held
+  upright, lowered into a bookshelf slot until its lower end is ``INSERT_DEPTH`` above the slot floor).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ GRIPPER_SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
     "grasp": (("obj",), "gripper"),
     "reorient": (("obj",), "gripper"),
     "insert": (("obj", "target"), "gripper"),
+    "stow": (("obj", "target"), "gripper"),
 }
 """Skill -> (required args naming objects, end-effector kind)."""
 
@@ -111,9 +114,16 @@ class GripperSkills:
         yield from self.mover.move(self.mover.tip, pitch=pitch, speed=SLOW_SPEED)
 
     def _insert(self, obj: str, target: str) -> Iterator[None]:
-        rim = f"{target}/rim"
-        if "rim" not in self.world.objects[target].parts:
-            raise SimError(f"insert: {target!r} has no opening (part 'rim')")
+        yield from self._lower_into(obj, target, "rim", "insert")
+
+    def _stow(self, obj: str, target: str) -> Iterator[None]:
+        yield from self._lower_into(obj, target, "slot", "stow")
+
+    def _lower_into(self, obj: str, target: str, part: str, skill: str) -> Iterator[None]:
+        """Carry the held ``obj``'s lowest end above ``target``'s opening (its ``part``), lower it in, release."""
+        rim = f"{target}/{part}"
+        if part not in self.world.objects[target].parts:
+            raise SimError(f"{skill}: {target!r} has no opening (part {part!r})")
         grip = self.world.robot.tip()
         end = self.task.lowest_point(self.world, obj)  # the end that goes in first
         d = end - grip

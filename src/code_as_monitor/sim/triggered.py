@@ -127,7 +127,9 @@ def turn_in_grasp(angle: tuple[float, float], axis: int = 0) -> Effect:
         axis_v = [0.0, 0.0, 0.0]
         axis_v[axis] = 1.0
         q = pb.getQuaternionFromAxisAngle(axis_v, a)
-        new_pos, new_orn = pb.multiplyTransforms([0, 0, 0], q, rel_pos, rel_orn)
+        tip = np.array([0.0, 0.0, float(getattr(ee, "tip_length", 0.0))])  # the grasp point, tool frame
+        turned, new_orn = pb.multiplyTransforms([0, 0, 0], q, (np.asarray(rel_pos) - tip).tolist(), rel_orn)
+        new_pos = (np.asarray(turned) + tip).tolist()
         ee.detach()
         c = world.client
         tpos, torn = pb.getBasePositionAndOrientation(ee.body, physicsClientId=c)
@@ -140,19 +142,22 @@ def turn_in_grasp(angle: tuple[float, float], axis: int = 0) -> Effect:
     return effect
 
 
-def lay_flat(obj: str, offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Effect:
-    """Effect: knock ``obj`` over: lay it on the table on its side (its local y axis vertical), shifted
-    horizontally by ``offset``; random yaw."""
+def lay_flat(obj: str, offset: tuple[float, float, float] | Callable[[Any], Any] = (0.0, 0.0, 0.0),
+             roll: float = np.pi / 2, z: float = 0.03) -> Effect:
+    """Effect: knock ``obj`` over: lay it on the table on its side (by default its local y axis vertical;
+    ``roll`` about its local x, 0 keeps local z up), its centre at height ``z``, shifted horizontally by
+    ``offset`` ((3,) or ``offset(world)``); random yaw."""
 
     def effect(world: Any, rng: np.random.Generator) -> None:
         import pybullet as pb
 
         c = world.client
         body = world.body_of(obj)
-        pos = np.asarray(pb.getBasePositionAndOrientation(body, physicsClientId=c)[0]) + np.asarray(offset)
+        shift = offset(world) if callable(offset) else offset
+        pos = np.asarray(pb.getBasePositionAndOrientation(body, physicsClientId=c)[0]) + np.asarray(shift)
         yaw = rng.uniform(-np.pi, np.pi)
-        orn = pb.getQuaternionFromEuler([np.pi / 2, 0.0, yaw])
-        pb.resetBasePositionAndOrientation(body, [pos[0], pos[1], 0.03], orn, physicsClientId=c)
+        orn = pb.getQuaternionFromEuler([roll, 0.0, yaw])
+        pb.resetBasePositionAndOrientation(body, [pos[0], pos[1], z], orn, physicsClientId=c)
         pb.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=c)
         world.events.log(world.t, "object_knocked", obj, pos=pos.tolist())
 

@@ -32,6 +32,10 @@ DEFAULT_SKILLS: dict[str, str] = {
         'args {"obj": name, "target": name}: carry the held object\'s lower end above the target\'s opening, '
         "lower it in, open the gripper, retreat"
     ),
+    "stow": (
+        'args {"obj": name, "target": name}: carry the held upright object (a book) above the target\'s slot, '
+        "lower it in, open the gripper, retreat"
+    ),
 }
 """Skill name -> one-line description of its arguments and behaviour."""
 

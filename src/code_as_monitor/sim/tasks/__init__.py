@@ -1,6 +1,12 @@
 """Simulator tasks, registered on :class:`TaskConfig` by id. Importing this package registers them."""
 
-from code_as_monitor.sim.tasks import rope_close_square, slot_pen, stack_in_order, sweep_half  # noqa: F401
+from code_as_monitor.sim.tasks import (  # noqa: F401
+    rope_close_square,
+    slot_pen,
+    stack_in_order,
+    stow_book,
+    sweep_half,
+)
 from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult, task_names
 
 __all__ = ["Task", "TaskConfig", "TaskResult", "task_names"]

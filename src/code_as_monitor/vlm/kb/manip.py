@@ -53,6 +53,11 @@ def understand(instruction: str, objects: list[str]) -> ManipTask | None:
         holder = next((o for o in names if "holder" in o), "")
         if pen and holder:
             return ManipTask("pen", pen, holder)
+    if "book" in s and "shelf" in s:
+        book = next((o for o in names if o == "book" or o.endswith("_book")), "")
+        shelf = next((o for o in names if "shelf" in o), "")
+        if book and shelf:
+            return ManipTask("book", book, shelf)
     return None
 
 
@@ -61,6 +66,8 @@ def infer_objects(instruction: str) -> list[str] | None:
     s = instruction.lower()
     if "pen" in s and "holder" in s:
         return ["pen", "pen_holder", "table"]
+    if "book" in s and "shelf" in s:
+        return ["book", "bookshelf", "table"]
     return None
 
 
@@ -196,4 +203,8 @@ def _pen(task: ManipTask, previous: dict[str, Any] | None, feedback: str | None)
 
 def next_subgoal(task: ManipTask, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
     """The generator answer for a gripper task."""
+    if task.family == "book":
+        from code_as_monitor.vlm.kb.book import next_book
+
+        return next_book(task.obj, task.target, previous, failed_kind(feedback))
     return _pen(task, previous, feedback)

@@ -140,3 +140,13 @@ MANIP_TEMPLATES: dict[str, Callable[[Spec], str]] = {
     "steady": steady, "grasped": grasped, "lifted": lifted, "gripped": gripped, "carried": carried, "over": over, "inside": inside, "freed": freed,
 }
 """Template key (constraint id prefix) -> writer, for the gripper skills."""
+
+
+def _register_more() -> None:
+    """Add the templates of the other gripper tasks (book, ...), kept in their own modules."""
+    from code_as_monitor.vlm.kb.book_templates import BOOK_TEMPLATES
+
+    MANIP_TEMPLATES.update(BOOK_TEMPLATES)
+
+
+_register_more()

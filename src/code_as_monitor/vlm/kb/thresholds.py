@@ -107,6 +107,8 @@ THRESHOLDS.update({
     "poised": {"max_tilt": 0.44, "max_dist": 0.08, "min_depth": 0.03},
     # reorient, during: the held book's centre stays within 8 cm of the grasp point (as "conveyed").
     "gripped_book": {"max_dist": 0.08},
+    # stow, upon: released: the grasp point 12 cm from the book's (painted) centre, beyond its 8 cm slack.
+    "freed_book": {"release_dist": 0.12},
     # reorient, upon: the spine within 6 degrees of vertical. The agent halts the turn as soon as this
     # holds; a 2.4 cm thick, 14 cm tall book released more than ~10 degrees off vertical tips over.
     "upright_book": {"max_tilt": 0.105},

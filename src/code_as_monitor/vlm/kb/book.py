@@ -1,0 +1,137 @@
+"""kb rules for ``stow-book`` (line level): constraint builders and the stateless next-subgoal rule.
+
+Family ``book`` ("put the book upright into the bookshelf"): ``grasp`` the book by its cover ->
+``reorient`` it spine-vertical -> ``stow`` it into the shelf slot -> done. Elements: the gripper's grasp
+point (``robot/tip``, point), the book's centre (``book/cover``, point), its spine (``book/spine``, a
+LINE: its two ends; ``direction``/``angle_to_vertical`` give its tilt), the shelf slot
+(``bookshelf/slot``, a SURFACE: the rim's corners; its centroid is the slot's centre).
+
+Recovery by the failed constraint's id prefix (``"failure: <id>: <reason>"``):
+
+================================================ ============================================
+failed                                           next subgoal
+================================================ ============================================
+steady/aligned/grasped/lifted (moved, turned,     grasp again (where it lies now)
+not held), gripped/conveyed (dropped),
+shelved/standing (not standing in the slot)
+upright/poised (tilted in the gripper)            reorient again
+aimed (low beside the slot)                       reorient (lifts it upright), then stow
+freed (still held)                                stow again
+================================================ ============================================
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from code_as_monitor.vlm.kb.skills import _c, nice
+from code_as_monitor.vlm.kb.thresholds import thresholds
+
+GRIP_TIP = {"name": "gripper grasp point", "obj": "robot", "part": "tip", "kind": "point"}
+
+
+def _cover(obj: str) -> dict[str, str]:
+    return {"name": f"{obj.replace('_', ' ')} centre", "obj": obj, "part": "cover", "kind": "point"}
+
+
+def _spine(obj: str) -> dict[str, str]:
+    return {"name": f"{obj.replace('_', ' ')} spine", "obj": obj, "part": "spine", "kind": "line"}
+
+
+def _slot(obj: str) -> dict[str, str]:
+    return {"name": f"{obj.replace('_', ' ')} slot", "obj": obj, "part": "slot", "kind": "surface"}
+
+
+def grasp(obj: str) -> list[dict[str, Any]]:
+    """``grasp``: during (proactive) the book stays put and keeps its direction; upon, gripped and lifted."""
+    st, al, li = thresholds("steady"), thresholds("aligned"), thresholds("lifted")
+    return [
+        _c(f"steady_{obj}", f"{nice(obj)} stays where it lies (within {st['max_disp'] * 100:.0f} cm) until it "
+           f"is between the fingers", "during", True, st, [GRIP_TIP, _cover(obj)]),
+        _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (flat, its direction within 15 degrees) "
+           f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during", True, al,
+           [_spine(obj)]),
+        _c(f"grasped_{obj}", f"{nice(obj)} is in the gripper: its centre within {li['max_dist'] * 100:.0f} cm of the "
+           f"grasp point", "upon", False, li, [GRIP_TIP, _cover(obj)]),
+        _c(f"lifted_{obj}", f"{nice(obj)} is lifted: its centre above {li['min_z'] * 100:.0f} cm", "upon", False, li,
+           [_cover(obj)]),
+    ]
+
+
+def reorient(obj: str) -> list[dict[str, Any]]:
+    """``reorient``: during, still gripped; upon, the spine (a line) within 6 degrees of vertical."""
+    gr, up = thresholds("gripped_book"), thresholds("upright_book")
+    return [
+        _c(f"gripped_{obj}", f"{nice(obj)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm of the grasp "
+           f"point)", "during", False, gr, [GRIP_TIP, _cover(obj)]),
+        _c(f"upright_{obj}", f"the spine of {nice(obj)} is upright: within 6 degrees of vertical", "upon", False, up,
+           [_spine(obj)]),
+    ]
+
+
+def stow(obj: str, target: str) -> list[dict[str, Any]]:
+    """``stow``: during, gripped, spine near vertical, centred when low; upon, in the slot, released, standing."""
+    cv, po, ai = thresholds("conveyed"), thresholds("poised"), thresholds("aimed")
+    sh, fr, sd = thresholds("shelved"), thresholds("freed_book"), thresholds("standing")
+    return [
+        _c(f"conveyed_{obj}", f"{nice(obj)} stays in the gripper (within {cv['max_dist'] * 100:.0f} cm of the grasp "
+           f"point) until it stands in the slot of {nice(target)}", "during", False, cv,
+           [GRIP_TIP, _cover(obj), _spine(obj), _slot(target)]),
+        _c(f"poised_{obj}", f"while held above the slot, the spine of {nice(obj)} stays within 25 degrees of "
+           f"vertical", "during", False, po, [GRIP_TIP, _cover(obj), _spine(obj), _slot(target)]),
+        _c(f"aimed_{target}", f"{nice(obj)} is centred over the slot of {nice(target)} (within "
+           f"{ai['max_offset'] * 100:.0f} cm) whenever its lower end is less than {ai['approach'] * 100:.0f} cm "
+           f"above the rim", "during", True, ai, [_cover(obj), _spine(obj), _slot(target)]),
+        _c(f"shelved_{target}", f"the lower end of {nice(obj)} is in the slot of {nice(target)}, at least "
+           f"{sh['min_depth'] * 100:.0f} cm below the rim", "upon", False, sh,
+           [_cover(obj), _spine(obj), _slot(target)]),
+        _c(f"freed_{obj}", f"{nice(obj)} is released: the grasp point at least {fr['release_dist'] * 100:.0f} cm "
+           f"from its centre", "upon", False, fr, [GRIP_TIP, _cover(obj)]),
+        _c(f"standing_{obj}", f"{nice(obj)} stands: its spine within 20 degrees of vertical", "upon", False, sd,
+           [_spine(obj)]),
+    ]
+
+
+def _answer(text: str, skill: str, args: dict[str, Any], cons: list[dict[str, Any]], why: str) -> dict[str, Any]:
+    return {"subgoal": text, "done": False, "action": {"skill": skill, "args": args}, "constraints": cons,
+            "reasoning": why}
+
+
+REGRASP = ("steady", "aligned", "grasped", "lifted", "gripped", "conveyed", "shelved", "standing")
+
+
+def next_book(book: str, shelf: str, previous: dict[str, Any] | None, kind: str) -> dict[str, Any]:
+    """The next subgoal for the book family; ``kind`` is the failed constraint's key (or ``success``)."""
+    g = _answer(f"grasp {nice(book)} by its cover", "grasp", {"obj": book, "part": "cover"}, grasp(book), "")
+    r = _answer(f"turn {nice(book)} upright, spine vertical", "reorient", {"obj": book, "axis": "vertical"},
+                reorient(book), "")
+    s = _answer(f"stow {nice(book)} upright in {nice(shelf)}", "stow", {"obj": book, "target": shelf},
+                stow(book, shelf), "")
+    done = {"subgoal": "task complete", "done": True, "action": None, "constraints": [],
+            "reasoning": "the book stands in the shelf"}
+    skill = ((previous or {}).get("action") or {}).get("skill")
+    if not previous or skill not in ("grasp", "reorient", "stow"):
+        if previous and previous.get("done"):
+            return done
+        g["reasoning"] = "the book lies on the table: grasp it first, then stand it upright and stow it"
+        return g
+    if kind == "success":
+        if skill == "grasp":
+            r["reasoning"] = "the book is held; it goes into the slot spine-vertical"
+            return r
+        if skill == "reorient":
+            s["reasoning"] = "the book is upright; bring it above the slot and lower it in"
+            return s
+        return done
+    if kind in REGRASP or (skill == "grasp" and kind == "other"):
+        g["reasoning"] = (f"the book is not held straight or not standing in the shelf ({kind}); grasp it again "
+                          f"where it is now")
+        return g
+    if kind in ("upright", "poised") or (skill == "reorient" and kind == "other"):
+        r["reasoning"] = "the book's spine is tilted in the gripper; turn it upright again"
+        return r
+    if kind == "aimed":
+        r["reasoning"] = "the book is low beside the slot: lift it upright first, then stow it where the slot is now"
+        return r
+    s["reasoning"] = f"the stow did not finish ({kind}); lift the book and stow it again"
+    return s
