@@ -49,8 +49,8 @@ def grasp(obj: str) -> list[dict[str, Any]]:
         _c(f"steady_{obj}", f"{nice(obj)} stays where it lies (within {st['max_disp'] * 100:.0f} cm) until it "
            f"is between the fingers", "during", True, st, [GRIP_TIP, _cover(obj)]),
         _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (flat, its direction within 15 degrees) "
-           f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during", True, al,
-           [_spine(obj)]),
+           f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
+           True, al, [_spine(obj)]),
         _c(f"grasped_{obj}", f"{nice(obj)} is in the gripper: its centre within {li['max_dist'] * 100:.0f} cm of the "
            f"grasp point", "upon", False, li, [GRIP_TIP, _cover(obj)]),
         _c(f"lifted_{obj}", f"{nice(obj)} is lifted: its centre above {li['min_z'] * 100:.0f} cm", "upon", False, li,
