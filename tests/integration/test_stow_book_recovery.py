@@ -1,7 +1,7 @@
 """Closed-loop recovery on stow-book: on a fixed seed per disturbance kind, the open-loop policy fails and
 Code-as-Monitor (kb backend, sim segmenter, sim tracker, 320x240) detects the failure and recovers.
 
-Measured (2 cores, seed 0): (b) book tilted in transport about 16 s wall, (a) about 20 s, (c) about 20 s.
+Measured (2 cores, seed 0): (b) book tilted in transport about 8 s wall, (a) about 19 s, (c) about 13 s.
 """
 
 from __future__ import annotations

@@ -31,12 +31,12 @@ SHELF[:3, 3] = [0.5, -0.15, 0.0]
 
 
 @pytest.mark.parametrize(("book", "held", "ok"), [
-    (_pose(0.5, -0.15, 0.076, (0, 0, -1)), False, True),  # standing in the slot
-    (_pose(0.52, -0.13, 0.075, (0.2, 0, -1)), False, True),  # leaning 11 degrees
-    (_pose(0.5, -0.15, 0.076, (0, 0, -1)), True, False),  # still in the gripper
-    (_pose(0.5, -0.15, 0.05, (1, 0, -0.6)), False, False),  # fallen against a wall (59 degrees)
+    (_pose(0.5, -0.15, 0.106, (0, 0, -1)), False, True),  # standing in the slot
+    (_pose(0.53, -0.13, 0.104, (0.2, 0, -1)), False, True),  # leaning 11 degrees
+    (_pose(0.5, -0.15, 0.106, (0, 0, -1)), True, False),  # still in the gripper
+    (_pose(0.5, -0.15, 0.07, (1, 0, -0.6)), False, False),  # fallen against a wall (59 degrees)
     (_pose(0.5, 0.02, 0.012, (1, 0, 0)), False, False),  # lying flat beside the shelf
-    (_pose(0.5, -0.15, 0.2, (0, 0, -1)), False, False),  # upright, above the slot
+    (_pose(0.5, -0.15, 0.2, (0, 0, -1)), False, False),  # upright, lower end 4 cm above the rim
 ])
 def test_book_in_shelf_on_constructed_states(book, held, ok):
     assert book_in_shelf(book, SHELF, held)[0] is ok

@@ -1,21 +1,21 @@
 """``stow-book`` (line level, the paper's OmniGibson "Stow Book"): put the book upright into the bookshelf.
 
-Description: a ``book`` (parts ``cover`` and ``spine``; 14 x 10 x 2.4 cm, its height along the local +x
+Description: a ``book`` (parts ``cover`` and ``spine``; 20 x 12 x 2.4 cm, its height along the local +x
 axis, the spine a 1 cm strip along one long edge) lies flat on the table; a ``bookshelf`` (an open
-cubby, inner 13 x 13 cm, 9 cm tall; parts ``body`` and ``slot``, the slot's rim) stands nearby.
+cubby, inner 15 x 15 cm, 9 cm tall; parts ``body`` and ``slot``, the slot's rim) stands nearby.
 Parallel-jaw gripper. Plan: ``grasp`` the book by its cover, ``reorient`` it spine-vertical, ``stow``
 it into the shelf slot.
 
 Randomisation: book centre x [0.40, 0.52], y [0.08, 0.18] m, heading uniform; shelf x [0.42, 0.52],
-y [-0.20, -0.12] m, yaw uniform in [0, 90) degrees.
+y [-0.22, -0.14] m, yaw uniform in [0, 90) degrees.
 
 Success: the book stands vertically in the shelf: nothing holds it, its spine (local x) within
 ``MAX_TILT`` (20 degrees) of vertical, its centre inside the slot (in the shelf frame, within the inner
-half-size 6.5 cm on both axes) and below the slot's rim.
+half-size 7.5 cm on both axes) and its lower end at least 2 cm below the slot's rim.
 
 Disturbances (config ``disturbance``):
 ``none``; ``a`` / ``turn``: while the gripper descends to grasp (grasp point within 5 cm of the book's
-centre) the book is turned 35-57 degrees about its centre, so the jaws end up across a skewed book;
+centre) the book is turned 35-57 degrees about its centre (in 0.1 s), so the jaws end up across a skewed book;
 ``b`` / ``tilt``: in transport (the book upright in the gripper, 3 cm closer to the shelf than when it
 became upright) an end-effector joint is perturbed: the book turns 31-46 degrees in the grasp about the
 closing axis; ``c`` / ``knock``: after placement (released in the slot, the grasp point 3 cm away)
@@ -38,9 +38,9 @@ from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 from code_as_monitor.sim.tasks.slot_pen import _gripper_near, _TransportCheck
 from code_as_monitor.sim.triggered import Triggered, lay_flat, slide, turn_in_grasp
 
-BOOK_HALF_HEIGHT = 0.07  # half the book's height along its local x, metres (assets/book.urdf)
+BOOK_HALF_HEIGHT = 0.10  # half the book's height along its local x, metres (assets/book.urdf)
 BOOK_HALF_THICK = 0.012  # half its thickness (local z), metres
-SLOT_INNER_HALF = 0.065  # metres (assets/bookshelf.urdf)
+SLOT_INNER_HALF = 0.075  # metres (assets/bookshelf.urdf)
 SLOT_FLOOR = 0.006  # floor plate thickness, metres
 SLOT_TOP = 0.09  # shelf height (top of the slot's rim), metres
 MAX_TILT = np.radians(20.0)  # a stowed book's spine within 20 degrees of vertical
@@ -59,8 +59,9 @@ def book_in_shelf(book_pose: np.ndarray, shelf_pose: np.ndarray, held: bool) -> 
     off = float(np.max(np.abs(local[:2])))
     if off > SLOT_INNER_HALF:
         return False, f"the book's centre is {off * 100:.1f} cm off the slot's centre (not in the shelf)"
-    if local[2] > SLOT_TOP:
-        return False, f"the book's centre is {local[2] * 100:.1f} cm above the shelf floor: not in the slot"
+    low = local[2] - BOOK_HALF_HEIGHT * abs(float(spine[2])) / max(float(np.linalg.norm(spine)), 1e-9)
+    if low > SLOT_TOP - 0.02:
+        return False, f"the book's lower end is {low * 100:.1f} cm above the shelf floor: not in the slot"
     if tilt > np.degrees(MAX_TILT):
         return False, f"the book's spine is {tilt:.0f} degrees from vertical: not standing"
     return True, f"the book stands in the shelf (spine {tilt:.0f} degrees from vertical)"
@@ -110,7 +111,7 @@ class StowBook(Task):
         rng, c = world.rng, world.client
         book_xy = [rng.uniform(0.40, 0.52), rng.uniform(0.08, 0.18)]
         heading = rng.uniform(-np.pi, np.pi)
-        shelf_xy = [rng.uniform(0.42, 0.52), rng.uniform(-0.20, -0.12)]
+        shelf_xy = [rng.uniform(0.42, 0.52), rng.uniform(-0.22, -0.14)]
         pb.resetBasePositionAndOrientation(world.body_of("book"), [*book_xy, BOOK_HALF_THICK],
                                            pb.getQuaternionFromEuler([0, 0, heading]), physicsClientId=c)
         pb.resetBasePositionAndOrientation(world.body_of("bookshelf"), [*shelf_xy, 0.0],
@@ -144,7 +145,8 @@ class StowBook(Task):
     def disturbances(self, seed: int = 0) -> list[Any]:
         kind = DISTURBANCES[self.config.disturbance]
         if kind == "turn":
-            return [Triggered(kind, _gripper_near("book"), slide("book", (0.0, 0.005), (0.6, 1.0)), [seed, 21])]
+            turn = slide("book", (0.0, 0.005), (0.6, 1.0), duration=0.1)
+            return [Triggered(kind, _gripper_near("book"), turn, [seed, 21])]
         if kind == "tilt":
             return [Triggered(kind, _TransportCheck("book", "bookshelf"), turn_in_grasp((0.55, 0.8), axis=0),
                               [seed, 22])]
@@ -168,7 +170,7 @@ def _placed(world: Any) -> bool:
 def _beside_shelf(world: Any) -> np.ndarray:
     """(3,) horizontal shift from the stowed book to a free spot of table on the robot's side of the shelf."""
     side = 1.0 if world.position("bookshelf")[1] < 0 else -1.0
-    target = world.position("bookshelf")[:2] + np.array([0.0, 0.17 * side])
+    target = world.position("bookshelf")[:2] + np.array([0.0, 0.21 * side])
     return np.array([*(target - world.position("book")[:2]), 0.0])
 
 

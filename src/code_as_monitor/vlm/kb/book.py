@@ -43,11 +43,13 @@ def _slot(obj: str) -> dict[str, str]:
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:
-    """``grasp``: during (proactive) the book stays put and keeps its direction; upon, gripped and lifted."""
-    st, al, li = thresholds("steady"), thresholds("aligned"), thresholds("lifted")
+    """``grasp``: during (proactive) the book lies as it did (flat, same direction); upon, gripped and lifted.
+
+    No ``steady`` (displacement) check: a book is turned about its centre under the gripper, which stays
+    within the steady check's grasp-point radius, so after a halt there that check could never fail on
+    the restart state (path coverage rejects it); ``aligned`` is the book's version."""
+    al, li = thresholds("aligned"), thresholds("lifted_book")
     return [
-        _c(f"steady_{obj}", f"{nice(obj)} stays where it lies (within {st['max_disp'] * 100:.0f} cm) until it "
-           f"is between the fingers", "during", True, st, [GRIP_TIP, _cover(obj)]),
         _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (flat, its direction within 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
@@ -59,12 +61,12 @@ def grasp(obj: str) -> list[dict[str, Any]]:
 
 
 def reorient(obj: str) -> list[dict[str, Any]]:
-    """``reorient``: during, still gripped; upon, the spine (a line) within 6 degrees of vertical."""
+    """``reorient``: during, still gripped; upon, the spine (a line) within 12 degrees of vertical."""
     gr, up = thresholds("gripped_book"), thresholds("upright_book")
     return [
         _c(f"gripped_{obj}", f"{nice(obj)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm of the grasp "
            f"point)", "during", False, gr, [GRIP_TIP, _cover(obj)]),
-        _c(f"upright_{obj}", f"the spine of {nice(obj)} is upright: within 6 degrees of vertical", "upon", False, up,
+        _c(f"upright_{obj}", f"the spine of {nice(obj)} is upright: within 12 degrees of vertical", "upon", False, up,
            [_spine(obj)]),
     ]
 
