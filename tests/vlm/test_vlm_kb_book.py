@@ -1,7 +1,9 @@
-"""kb rules for stow-book: the open-loop plan and recovery subgoals from failure feedback."""
+"""kb rules for stow-book: the open-loop plan, recovery subgoals from failure feedback, programs that pass the
+monitor's gates (validation and path coverage in a real sandbox) and checks that decide right."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from code_as_monitor.planning import ConstraintGenerator
@@ -42,3 +44,58 @@ def test_book_recovery_subgoals(after, feedback, skill):
     prev = _chain([None, "success", "success"][: after + 1])[-1]
     nxt = ConstraintGenerator(KBBackend()).next_subgoal(BOOK, {}, infer_objects(BOOK), prev, feedback)
     assert nxt.action.skill == skill
+
+
+validate = pytest.importorskip("code_as_monitor.monitor.validate")
+coverage = pytest.importorskip("code_as_monitor.monitor.coverage")
+sandbox = pytest.importorskip("code_as_monitor.monitor.sandbox")
+
+SLOT = [[0.425, -0.225, 0.087], [0.575, -0.225, 0.087], [0.575, -0.075, 0.087], [0.425, -0.075, 0.087]]
+# Plausible states at the start of each stow-book subgoal (world metres).
+BOOK_STARTS = [
+    {("robot", "tip"): [0.32, -0.33, 0.34], ("book", "cover"): [0.47, 0.12, 0.024],
+     ("book", "spine"): [[0.37, 0.185, 0.024], [0.57, 0.185, 0.024]]},
+    {("robot", "tip"): [0.47, 0.12, 0.22], ("book", "cover"): [0.47, 0.12, 0.23],
+     ("book", "spine"): [[0.37, 0.185, 0.22], [0.57, 0.185, 0.22]]},
+    {("robot", "tip"): [0.47, 0.12, 0.22], ("book", "cover"): [0.47, 0.12, 0.22],
+     ("book", "spine"): [[0.47, 0.185, 0.12], [0.47, 0.185, 0.32]], ("bookshelf", "slot"): SLOT},
+]
+
+
+def test_book_programs_pass_validation_and_path_coverage(make_elements):
+    from code_as_monitor.planning import MonitorCoder
+
+    coder = MonitorCoder(KBBackend())
+    box = sandbox.Sandbox()
+    box.start()
+    try:
+        for subgoal, start in zip(_chain([None, "success", "success"]), BOOK_STARTS):
+            els = make_elements(subgoal, start)
+            cons = subgoal.constraints
+            src = coder.write_program(subgoal, els, {}, lambda s, cons=cons: validate.validate_program(s, cons))
+            coverage.check_path_coverage(src, cons, {e.id: e.points for e in els}, None, None, 0.0, box)
+    finally:
+        box.close()
+
+
+def test_book_checks_decide_right_on_constructed_states(make_elements, run_program):
+    from code_as_monitor.planning import MonitorCoder
+
+    grasp, _, stow = _chain([None, "success", "success"])
+    src = MonitorCoder(KBBackend()).write_program(grasp, make_elements(grasp, BOOK_STARTS[0]), {}, lambda s: None)
+    els = make_elements(grasp, BOOK_STARTS[0])
+    turned = make_elements(grasp, {**BOOK_STARTS[0], ("book", "spine"): [[0.42, 0.06, 0.024], [0.52, 0.23, 0.024]]})
+    hist = [np.stack([a.points, b.points]) for a, b in zip(els, turned)]
+    assert run_program(src, els)["aligned_book"][0]
+    assert not run_program(src, turned, hist)["aligned_book"][0]
+    src = MonitorCoder(KBBackend()).write_program(stow, make_elements(stow, BOOK_STARTS[2]), {}, lambda s: None)
+    tilted = {**BOOK_STARTS[2], ("book", "spine"): [[0.40, 0.185, 0.14], [0.54, 0.185, 0.30]]}
+    assert not run_program(src, make_elements(stow, tilted))["poised_book"][0]
+    stood = {("robot", "tip"): [0.5, -0.15, 0.3], ("book", "cover"): [0.5, -0.15, 0.106],
+             ("book", "spine"): [[0.5, -0.085, 0.006], [0.5, -0.085, 0.206]], ("bookshelf", "slot"): SLOT}
+    r = run_program(src, make_elements(stow, stood))
+    assert r["shelved_bookshelf"][0] and r["freed_book"][0] and r["standing_book"][0] and r["conveyed_book"][0]
+    flat = {**stood, ("book", "cover"): [0.5, 0.06, 0.024],
+            ("book", "spine"): [[0.4, 0.125, 0.024], [0.6, 0.125, 0.024]]}
+    r = run_program(src, make_elements(stow, flat))
+    assert not r["standing_book"][0] and not r["shelved_bookshelf"][0] and not r["conveyed_book"][0]
