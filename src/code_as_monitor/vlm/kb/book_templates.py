@@ -3,7 +3,9 @@
 
 Same rules as :mod:`code_as_monitor.vlm.kb.templates`. Element order in a constraint's parts is the
 contract with :mod:`code_as_monitor.vlm.kb.book`: ``cover`` is a point (the book's centre, where the
-gripper holds it), ``spine`` a line (its two ends), ``slot`` a surface (the slot rim's corners).
+gripper holds it), ``spine`` a line (its two ends), ``slot`` a surface (the slot rim's corners). The book's
+lower end is the lower of the spine's lowest end and the centre minus half the book's height
+(``half_height``): a finger over the spine can shorten the painted line.
 """
 
 from __future__ import annotations
@@ -39,9 +41,10 @@ def conveyed(c: Spec) -> str:
     tip, cov, sp, slot = c["element_ids"][:4]
     th, xn, sn = c["thresholds"], _name(c, 1), _name(c, 3)
     md, mo, dp = _f(th["max_dist"]), _f(th["max_offset"]), _f(th["min_depth"])
+    hh = _f(th["half_height"])
     body = f"""
     d = distance(E[{tip}], centroid(E[{cov}]))
-    depth = centroid(E[{slot}])[2] - np.min(E[{sp}][:, 2])
+    depth = centroid(E[{slot}])[2] - np.min([np.min(E[{sp}][:, 2]), centroid(E[{cov}])[2] - {hh}])
     off = horizontal_distance(centroid(E[{cov}]), centroid(E[{slot}]))
     margin = np.max([{md} - d, np.min([{mo} - off, depth - {dp}])])
     if d <= {md} or (off <= {mo} and depth >= {dp}):
@@ -57,10 +60,11 @@ def poised(c: Spec) -> str:
     tip, cov, sp, slot = c["element_ids"][:4]
     th, xn = c["thresholds"], _name(c, 1)
     md, mt, dp = _f(th["max_dist"]), _f(th["max_tilt"]), _f(th["min_depth"])
+    hh = _f(th["half_height"])
     body = f"""
     a = angle_to_vertical(direction(E[{sp}]))
     d = distance(E[{tip}], centroid(E[{cov}]))
-    depth = centroid(E[{slot}])[2] - np.min(E[{sp}][:, 2])
+    depth = centroid(E[{slot}])[2] - np.min([np.min(E[{sp}][:, 2]), centroid(E[{cov}])[2] - {hh}])
     margin = np.max([{mt} - a, d - {md}, depth - {dp}])
     if a <= {mt} or d > {md} or depth >= {dp}:
         return True, {_q(xn + " spine is near vertical while carried (%.1f degrees), or it is not held, or already in the slot")} % math.degrees(a), margin
@@ -70,15 +74,17 @@ def poised(c: Spec) -> str:
 
 
 def aimed(c: Spec) -> str:
-    """Parts: [cover (point), spine (line), slot (surface)]. Low above the slot means centred over it."""
+    """Parts: [cover (point), spine (line), slot (surface)]. Entering the slot (the lower end between the rim
+    and ``deep`` below it) means centred over it; deeper in, the upon checks judge it."""
     cov, sp, slot = c["element_ids"][:3]
     th, xn, sn = c["thresholds"], _name(c, 0), _name(c, 2)
-    ap, mo = _f(th["approach"]), _f(th["max_offset"])
+    ap, mo, dd = _f(th["approach"]), _f(th["max_offset"]), _f(th["deep"])
+    hh = _f(th["half_height"])
     body = f"""
-    h = np.min(E[{sp}][:, 2]) - centroid(E[{slot}])[2]
+    h = np.min([np.min(E[{sp}][:, 2]), centroid(E[{cov}])[2] - {hh}]) - centroid(E[{slot}])[2]
     off = horizontal_distance(centroid(E[{cov}]), centroid(E[{slot}]))
-    margin = np.max([h - {ap}, {mo} - off])
-    if h >= {ap} or off <= {mo}:
+    margin = np.max([h - {ap}, {mo} - off, -h - {dd}])
+    if h >= {ap} or off <= {mo} or h < -{dd}:
         return True, {_q(xn + " is above the slot of " + sn + " or still high (offset %.3f m, %.3f m above the rim)")} % (off, h), margin
     return False, {_q(xn + " is %.3f m above the rim but offset %.3f m from the slot of " + sn + ": not above the opening, it will miss it")} % (h, off), margin
 """
@@ -90,8 +96,9 @@ def shelved(c: Spec) -> str:
     cov, sp, slot = c["element_ids"][:3]
     th, xn, sn = c["thresholds"], _name(c, 0), _name(c, 2)
     mo, dp = _f(th["max_offset"]), _f(th["min_depth"])
+    hh = _f(th["half_height"])
     body = f"""
-    depth = centroid(E[{slot}])[2] - np.min(E[{sp}][:, 2])
+    depth = centroid(E[{slot}])[2] - np.min([np.min(E[{sp}][:, 2]), centroid(E[{cov}])[2] - {hh}])
     off = horizontal_distance(centroid(E[{cov}]), centroid(E[{slot}]))
     margin = np.min([{mo} - off, depth - {dp}])
     if off <= {mo} and depth >= {dp}:

@@ -104,11 +104,11 @@ THRESHOLDS.update({
     # the rim.
     # The book's centre point is painted from its visible faces (up to 6 cm off when it is upright and
     # half hidden by the gripper), so "held" allows 8 cm; a dropped book falls 15 cm or more.
-    "conveyed": {"max_dist": 0.08, "max_offset": 0.04, "min_depth": 0.03},
+    "conveyed": {"max_dist": 0.08, "max_offset": 0.04, "min_depth": 0.03, "half_height": 0.10},
     # stow, during: a held book stays within 25 degrees of vertical (a 20 cm book tilted more than that
     # cannot stand in a 15 cm slot); 8 cm from the grasp point means it is not held.
     # Once its lower end is 3 cm below the rim it is in the slot (the upon checks judge it there).
-    "poised": {"max_tilt": 0.44, "max_dist": 0.08, "min_depth": 0.03},
+    "poised": {"max_tilt": 0.44, "max_dist": 0.08, "min_depth": 0.03, "half_height": 0.10},
     # reorient, during: the held book's centre stays within 8 cm of the grasp point (as "conveyed").
     "gripped_book": {"max_dist": 0.08},
     # stow, upon: released: the grasp point 12 cm from the book's (painted) centre, beyond its 8 cm slack.
@@ -117,12 +117,15 @@ THRESHOLDS.update({
     # holds; a 20 cm tall book released ~7 degrees off vertical towards a cover (2.4 cm thick) may tip,
     # towards its width (10 cm) it stands; a book gripped a little skewed keeps a residual sideways tilt.
     "upright_book": {"max_tilt": 0.21},
-    # stow, during (proactive): once the book's lower end is below the rim, its centre must be within
-    # 3 cm (horizontally) of the slot's centre. (A 20 cm book held upright at carry height clears the
+    # stow, during (proactive): while the book's lower end enters the slot (from the rim to 3 cm below
+    # it), its centre must be within 4 cm (horizontally) of the slot's centre (the painted centre point
+    # is a few cm off on a book half hidden by the gripper). (A 20 cm book held upright at carry height clears the
     # 9 cm rim by only 3 cm, so there is no approach margin above the rim.)
-    "aimed": {"approach": 0.0, "max_offset": 0.03},
+    "aimed": {"approach": 0.0, "max_offset": 0.04, "deep": 0.03, "half_height": 0.10},
     # stow, upon: the lower end at least 3 cm below the rim, the centre within 4 cm of the slot's centre.
-    "shelved": {"max_offset": 0.04, "min_depth": 0.03},
+    # (All four stow checks take the lower end as the lower of the spine's lowest end and the centre
+    # minus half the book's 20 cm height: the gripper's finger can hide part of the spine.)
+    "shelved": {"max_offset": 0.04, "min_depth": 0.03, "half_height": 0.10},
     # stow, upon: the spine within 20 degrees of vertical (the task's success tolerance).
     "standing": {"max_tilt": 0.35},
 })
