@@ -24,10 +24,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from code_as_monitor.vlm.kb.skills import _c, nice
+from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, still_gripped
+from code_as_monitor.vlm.kb.skills import _c, answer, nice
 from code_as_monitor.vlm.kb.thresholds import thresholds
-
-GRIP_TIP = {"name": "gripper grasp point", "obj": "robot", "part": "tip", "kind": "point"}
 
 
 def _cover(obj: str) -> dict[str, str]:
@@ -53,10 +52,7 @@ def grasp(obj: str) -> list[dict[str, Any]]:
         _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (flat, its direction within 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
-        _c(f"grasped_{obj}", f"{nice(obj)} is in the gripper: its centre within {li['max_dist'] * 100:.0f} cm of the "
-           f"grasp point", "upon", False, li, [GRIP_TIP, _cover(obj)]),
-        _c(f"lifted_{obj}", f"{nice(obj)} is lifted: its centre above {li['min_z'] * 100:.0f} cm", "upon", False, li,
-           [_cover(obj)]),
+        *in_gripper(obj, _cover(obj), li),
     ]
 
 
@@ -64,8 +60,7 @@ def reorient(obj: str) -> list[dict[str, Any]]:
     """``reorient``: during, still gripped; upon, the spine (a line) within 12 degrees of vertical."""
     gr, up = thresholds("gripped_book"), thresholds("upright_book")
     return [
-        _c(f"gripped_{obj}", f"{nice(obj)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm of the grasp "
-           f"point)", "during", False, gr, [GRIP_TIP, _cover(obj)]),
+        still_gripped(obj, _cover(obj), gr),
         _c(f"upright_{obj}", f"the spine of {nice(obj)} is upright: within 12 degrees of vertical", "upon", False, up,
            [_spine(obj)]),
     ]
@@ -94,20 +89,15 @@ def stow(obj: str, target: str) -> list[dict[str, Any]]:
     ]
 
 
-def _answer(text: str, skill: str, args: dict[str, Any], cons: list[dict[str, Any]], why: str) -> dict[str, Any]:
-    return {"subgoal": text, "done": False, "action": {"skill": skill, "args": args}, "constraints": cons,
-            "reasoning": why}
-
-
 REGRASP = ("steady", "aligned", "grasped", "lifted", "gripped", "conveyed", "shelved", "standing")
 
 
 def next_book(book: str, shelf: str, previous: dict[str, Any] | None, kind: str) -> dict[str, Any]:
     """The next subgoal for the book family; ``kind`` is the failed constraint's key (or ``success``)."""
-    g = _answer(f"grasp {nice(book)} by its cover", "grasp", {"obj": book, "part": "cover"}, grasp(book), "")
-    r = _answer(f"turn {nice(book)} upright, spine vertical", "reorient", {"obj": book, "axis": "vertical"},
+    g = answer(f"grasp {nice(book)} by its cover", "grasp", {"obj": book, "part": "cover"}, grasp(book), "")
+    r = answer(f"turn {nice(book)} upright, spine vertical", "reorient", {"obj": book, "axis": "vertical"},
                 reorient(book), "")
-    s = _answer(f"stow {nice(book)} upright in {nice(shelf)}", "stow", {"obj": book, "target": shelf},
+    s = answer(f"stow {nice(book)} upright in {nice(shelf)}", "stow", {"obj": book, "target": shelf},
                 stow(book, shelf), "")
     done = {"subgoal": "task complete", "done": True, "action": None, "constraints": [],
             "reasoning": "the book stands in the shelf"}

@@ -29,10 +29,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.vlm.kb.feedback import classify
-from code_as_monitor.vlm.kb.skills import _c, nice
+from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, still_gripped
+from code_as_monitor.vlm.kb.skills import _c, answer, nice
 from code_as_monitor.vlm.kb.thresholds import thresholds
-
-GRIP_TIP = {"name": "gripper grasp point", "obj": "robot", "part": "tip", "kind": "point"}
 
 
 @dataclass(frozen=True)
@@ -91,10 +90,7 @@ def grasp(obj: str) -> list[dict[str, Any]]:
         _c(f"steady_{obj}", f"{nice(obj)} stays where it lies (within {st['max_disp'] * 100:.0f} cm) until it is "
            f"between the fingers; if it moves the fingers close on nothing", "during", True, st,
            [GRIP_TIP, _axis(obj)]),
-        _c(f"grasped_{obj}", f"{nice(obj)} is in the gripper: its centre within {li['max_dist'] * 100:.0f} cm of the "
-           f"grasp point", "upon", False, li, [GRIP_TIP, _axis(obj)]),
-        _c(f"lifted_{obj}", f"{nice(obj)} is lifted: its centre above {li['min_z'] * 100:.0f} cm", "upon", False, li,
-           [_axis(obj)]),
+        *in_gripper(obj, _axis(obj), li),
     ]
 
 
@@ -102,8 +98,7 @@ def reorient(obj: str) -> list[dict[str, Any]]:
     """``reorient``: during, still gripped; upon, the object's axis (a line) within 15 degrees of vertical."""
     gr, up = thresholds("gripped"), thresholds("upright_turned")
     return [
-        _c(f"gripped_{obj}", f"{nice(obj)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm of the grasp "
-           f"point)", "during", False, gr, [GRIP_TIP, _axis(obj)]),
+        still_gripped(obj, _axis(obj), gr),
         _c(f"upright_{obj}", f"{nice(obj)} is upright: its axis within 15 degrees of vertical", "upon", False, up,
            [_axis(obj)]),
     ]
@@ -156,16 +151,11 @@ def failed_kind(feedback: str | None) -> str:
     return "other"
 
 
-def _answer(text: str, skill: str, args: dict[str, Any], cons: list[dict[str, Any]], why: str) -> dict[str, Any]:
-    return {"subgoal": text, "done": False, "action": {"skill": skill, "args": args}, "constraints": cons,
-            "reasoning": why}
-
-
 def _pen(task: ManipTask, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
     pen, holder = task.obj, task.target
-    g = _answer(f"grasp {nice(pen)} by its body", "grasp", {"obj": pen, "part": "body"}, grasp(pen), "")
-    r = _answer(f"turn {nice(pen)} upright, tip down", "reorient", {"obj": pen, "axis": "vertical"}, reorient(pen), "")
-    i = _answer(f"insert {nice(pen)} into {nice(holder)}", "insert", {"obj": pen, "target": holder},
+    g = answer(f"grasp {nice(pen)} by its body", "grasp", {"obj": pen, "part": "body"}, grasp(pen), "")
+    r = answer(f"turn {nice(pen)} upright, tip down", "reorient", {"obj": pen, "axis": "vertical"}, reorient(pen), "")
+    i = answer(f"insert {nice(pen)} into {nice(holder)}", "insert", {"obj": pen, "target": holder},
                 insert(pen, holder), "")
     action = (previous or {}).get("action") or {}
     skill = action.get("skill")

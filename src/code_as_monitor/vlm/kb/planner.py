@@ -19,26 +19,16 @@ def _done(why: str) -> dict[str, Any]:
     return {"subgoal": "task complete", "done": True, "action": None, "constraints": [], "reasoning": why}
 
 
-def _answer(text: str, skill: str, args: dict[str, Any], cons: list[dict[str, Any]], why: str) -> dict[str, Any]:
-    return {
-        "subgoal": text,
-        "done": False,
-        "action": {"skill": skill, "args": args},
-        "constraints": cons,
-        "reasoning": why,
-    }
-
-
 def _pick(task: TaskSpec, level: int, why: str) -> dict[str, Any]:
     obj = task.tower[level]
-    return _answer(f"pick up {skills.nice(obj)}", "pick", {"obj": obj}, skills.pick(obj), why)
+    return skills.answer(f"pick up {skills.nice(obj)}", "pick", {"obj": obj}, skills.pick(obj), why)
 
 
 def _place(task: TaskSpec, level: int, why: str) -> dict[str, Any]:
     obj, target = task.tower[level], task.tower[level - 1]
     below = [(task.tower[i], task.tower[i - 1]) for i in range(1, level)]
     cons = skills.place_on(obj, target, below)
-    return _answer(
+    return skills.answer(
         f"place {skills.nice(obj)} on {skills.nice(target)}",
         "place_on", {"obj": obj, "target": target}, cons, why,
     )
@@ -88,7 +78,7 @@ def _sweep(task: TaskSpec, previous: dict[str, Any] | None, feedback: str | None
                          "out; stopping")
         why = f"the previous push did not reach the target ({cat}); keep pushing. " + why
     text = f"push blocks into {skills.nice(task.region)} until about half of them are inside"
-    return _answer(text, "push_into_region", {"region": task.region}, cons, why)
+    return skills.answer(text, "push_into_region", {"region": task.region}, cons, why)
 
 
 def _rope(task: TaskSpec, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
@@ -100,7 +90,7 @@ def _rope(task: TaskSpec, previous: dict[str, Any] | None, feedback: str | None)
         why = f"the opening is not enclosed yet ({cat}); keep adjusting the rope. " + why
     cons = skills.close_shape(task.rope, task.shape, task.rope_beads)
     text = f"close the opening of {skills.nice(task.shape)} with {skills.nice(task.rope)}"
-    return _answer(text, "close_shape", {"rope": task.rope, "shape": task.shape}, cons, why)
+    return skills.answer(text, "close_shape", {"rope": task.rope, "shape": task.shape}, cons, why)
 
 
 def next_subgoal(request: dict[str, Any]) -> dict[str, Any]:

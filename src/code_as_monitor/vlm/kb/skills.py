@@ -150,3 +150,9 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str,
             "upon", False, thr, parts,
         )
     ]
+
+
+def answer(text: str, skill: str, args: dict[str, Any], cons: list[dict[str, Any]], why: str) -> dict[str, Any]:
+    """The generator's JSON answer for one subgoal (the format a VLM is asked for)."""
+    return {"subgoal": text, "done": False, "action": {"skill": skill, "args": args}, "constraints": cons,
+            "reasoning": why}
