@@ -22,6 +22,7 @@ config module never imports an optional dependency.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 from typing import Any, ClassVar, TypeVar
 
 from code_as_monitor.core.errors import ConfigError, UnknownChoiceError
@@ -104,3 +105,13 @@ def check_probability(owner: str, field: str, value: float) -> None:
     """Raise ConfigError naming ``owner.field`` when ``value`` is not in [0, 1]."""
     if not 0.0 <= value <= 1.0:
         raise ConfigError(f"{owner}.{field} must be in [0, 1], got {value!r}")
+
+
+def build_lazily(implementations: dict[str, str], config: Choice, stage: str) -> Any:
+    """Instantiate the implementation of ``config`` from ``implementations`` (name -> "module:Class"),
+    importing its module only now, so a missing optional dependency fails only for the user who chose it."""
+    name = type(config).name
+    if name not in implementations:
+        raise ConfigError(f"no {stage} implementation registered for {name!r}")
+    module, cls = implementations[name].split(":")
+    return getattr(importlib.import_module(module), cls)(config)

@@ -15,7 +15,6 @@ their own modules (``sim``, ``color``, ``http``) and are imported only by :func:
 
 from __future__ import annotations
 
-import importlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
@@ -24,7 +23,7 @@ import numpy as np
 from code_as_monitor.core.elements import ElementKind, ElementSpec
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.observation import View
-from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.core.registry import Choice, build_lazily, check_positive
 
 
 @dataclass
@@ -184,8 +183,4 @@ _IMPLEMENTATIONS: dict[str, str] = {
 
 def make_segmenter(config: SegmenterConfig) -> Segmenter:
     """Build the segmenter for ``config``, importing its implementation module only now."""
-    name = type(config).name
-    if name not in _IMPLEMENTATIONS:
-        raise ConfigError(f"no segmenter implementation registered for {name!r}")
-    module, cls = _IMPLEMENTATIONS[name].split(":")
-    return getattr(importlib.import_module(module), cls)(config)
+    return build_lazily(_IMPLEMENTATIONS, config, "segmenter")

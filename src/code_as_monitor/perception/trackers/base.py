@@ -18,7 +18,6 @@ The backend configs are registered here; implementations (``lk``, ``sim``) are i
 
 from __future__ import annotations
 
-import importlib
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,7 +27,7 @@ import numpy as np
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
-from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.core.registry import Choice, build_lazily, check_positive
 
 ReacquireFn = Callable[[Observation, Element], "Element | None"]
 
@@ -240,8 +239,4 @@ _IMPLEMENTATIONS: dict[str, str] = {
 
 def make_tracker(config: TrackerConfig) -> Tracker:
     """Build the tracker for ``config``, importing its implementation module only now."""
-    name = type(config).name
-    if name not in _IMPLEMENTATIONS:
-        raise ConfigError(f"no tracker implementation registered for {name!r}")
-    module, cls = _IMPLEMENTATIONS[name].split(":")
-    return getattr(importlib.import_module(module), cls)(config)
+    return build_lazily(_IMPLEMENTATIONS, config, "tracker")

@@ -24,21 +24,21 @@ from __future__ import annotations
 
 from typing import Any
 
-from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, still_gripped
+from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
 from code_as_monitor.vlm.kb.skills import _c, answer, nice
 from code_as_monitor.vlm.kb.thresholds import thresholds
 
 
 def _cover(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} centre", "obj": obj, "part": "cover", "kind": "point"}
+    return part_spec(obj, "cover", "point", "centre")
 
 
 def _spine(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} spine", "obj": obj, "part": "spine", "kind": "line"}
+    return part_spec(obj, "spine", "line", "spine")
 
 
 def _slot(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} slot", "obj": obj, "part": "slot", "kind": "surface"}
+    return part_spec(obj, "slot", "surface", "slot")
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:

@@ -14,6 +14,11 @@ GRIP_TIP = {"name": "gripper grasp point", "obj": "robot", "part": "tip", "kind"
 """The grasp point between the fingers, from forward kinematics (never segmented)."""
 
 
+def part_spec(obj: str, part: str, kind: str, label: str) -> dict[str, str]:
+    """An element spec: ``obj``'s ``part`` as a ``kind`` element, named "<obj> <label>" in the legend."""
+    return {"name": f"{obj.replace('_', ' ')} {label}", "obj": obj, "part": part, "kind": kind}
+
+
 def in_gripper(obj: str, part: dict[str, str], li: dict[str, float]) -> list[dict[str, Any]]:
     """Upon a grasp: the object's centre within ``li['max_dist']`` of the grasp point, and above ``li['min_z']``."""
     return [

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.vlm.kb.feedback import classify
-from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, still_gripped
+from code_as_monitor.vlm.kb.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
 from code_as_monitor.vlm.kb.skills import _c, answer, nice
 from code_as_monitor.vlm.kb.thresholds import thresholds
 
@@ -72,15 +72,15 @@ def infer_objects(instruction: str) -> list[str] | None:
 
 # --- constraint builders ---------------------------------------------------------------------------
 def _axis(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} axis", "obj": obj, "part": "body", "kind": "line"}
+    return part_spec(obj, "body", "line", "axis")
 
 
 def _end(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} tip", "obj": obj, "part": "tip", "kind": "point"}
+    return part_spec(obj, "tip", "point", "tip")
 
 
 def _opening(obj: str) -> dict[str, str]:
-    return {"name": f"{obj.replace('_', ' ')} opening", "obj": obj, "part": "rim", "kind": "surface"}
+    return part_spec(obj, "rim", "surface", "opening")
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:

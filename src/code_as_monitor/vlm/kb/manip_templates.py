@@ -30,8 +30,10 @@ def steady(c: Spec) -> str:
     return _fn(c, body)
 
 
-def grasped(c: Spec) -> str:
-    """Parts: [gripper tip (point), object part (any)]. The part's centre is at the grasp point."""
+def _at_grasp_point(c: Spec, failure: str) -> str:
+    """Parts: [gripper tip (point), object part (any)]: the part's centre is at the grasp point.
+
+    ``failure`` is the reason text when it is not, with ``%.3f`` for the distance."""
     tip, x = c["element_ids"][:2]
     th, xn = c["thresholds"], _name(c, 1)
     md = _f(th["max_dist"])
@@ -39,9 +41,14 @@ def grasped(c: Spec) -> str:
     d = distance(E[{tip}], centroid(E[{x}]))
     if d <= {md}:
         return True, {_q(xn + " is in the gripper (%.3f m from the grasp point)")} % d, {md} - d
-    return False, {_q(xn + " is not held in the gripper: %.3f m from the grasp point (limit " + md + ")")} % d, {md} - d
+    return False, {_q(xn + failure.replace("{md}", md))} % d, {md} - d
 """
     return _fn(c, body)
+
+
+def grasped(c: Spec) -> str:
+    """Upon a grasp: the object part is at the grasp point."""
+    return _at_grasp_point(c, " is not held in the gripper: %.3f m from the grasp point (limit {md})")
 
 
 def lifted(c: Spec) -> str:
@@ -59,17 +66,8 @@ def lifted(c: Spec) -> str:
 
 
 def gripped(c: Spec) -> str:
-    """Parts: [gripper tip (point), object part (any)]. The held part stays at the grasp point."""
-    tip, x = c["element_ids"][:2]
-    th, xn = c["thresholds"], _name(c, 1)
-    md = _f(th["max_dist"])
-    body = f"""
-    d = distance(E[{tip}], centroid(E[{x}]))
-    if d <= {md}:
-        return True, {_q(xn + " is in the gripper (%.3f m from the grasp point)")} % d, {md} - d
-    return False, {_q(xn + " dropped: it is %.3f m from the grasp point, no longer held")} % d, {md} - d
-"""
-    return _fn(c, body)
+    """During a move: the held part stays at the grasp point (else it was dropped)."""
+    return _at_grasp_point(c, " dropped: it is %.3f m from the grasp point, no longer held")
 
 
 def carried(c: Spec) -> str:
