@@ -26,8 +26,10 @@ import numpy as np
 
 from code_as_monitor.core.constraints import Action
 from code_as_monitor.core.errors import SimError
+from code_as_monitor.sim.drawer_skills import DRAWER_SKILLS, DrawerSkills
 from code_as_monitor.sim.gripper_skills import GRIPPER_SKILLS, GripperSkills
 from code_as_monitor.sim.motion import PUSH_SPEED, SLOW_SPEED, Mover, wrap_angle
+from code_as_monitor.sim.pour_skills import POUR_SKILLS, PourSkills
 from code_as_monitor.sim.world import World
 
 PARK = (0.32, -0.33, 0.30)  # tip position out of the cameras' way after a placement, metres
@@ -40,10 +42,12 @@ SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
     "push_into_region": (("region",), "spatula"),
     "close_shape": (("rope", "shape"), "suction"),
     **GRIPPER_SKILLS,
+    **POUR_SKILLS,
+    **DRAWER_SKILLS,
 }
 
 
-class ScriptedPolicy(GripperSkills):
+class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
     """Oracle pick-and-place / push / rope-adjustment policy for one world and task."""
 
     def __init__(self, world: World, task: Any) -> None:

@@ -57,6 +57,12 @@ def understand(instruction: str, objects: list[str]) -> ManipTask | None:
         shelf = next((o for o in names if "shelf" in o), "")
         if book and shelf:
             return ManipTask("book", book, shelf)
+    from code_as_monitor.vlm.kb import drawer, tea
+
+    for family, rule in (("tea", tea.understand), ("drawer", drawer.understand)):
+        got = rule(instruction, objects)
+        if got is not None:
+            return ManipTask(family, *got)
     return None
 
 
@@ -67,7 +73,9 @@ def infer_objects(instruction: str) -> list[str] | None:
         return ["pen", "pen_holder", "table"]
     if "book" in s and "shelf" in s:
         return ["book", "bookshelf", "table"]
-    return None
+    from code_as_monitor.vlm.kb import drawer, tea
+
+    return tea.infer_objects(instruction) or drawer.infer_objects(instruction)
 
 
 # --- constraint builders ---------------------------------------------------------------------------
@@ -197,4 +205,12 @@ def next_subgoal(task: ManipTask, previous: dict[str, Any] | None, feedback: str
         from code_as_monitor.vlm.kb.book import next_book
 
         return next_book(task.obj, task.target, previous, failed_kind(feedback))
+    if task.family == "tea":
+        from code_as_monitor.vlm.kb.tea import next_tea
+
+        return next_tea(task.obj, task.target, previous, failed_kind(feedback))
+    if task.family == "drawer":
+        from code_as_monitor.vlm.kb.drawer import next_drawer
+
+        return next_drawer(task.obj, task.target, previous, failed_kind(feedback))
     return _pen(task, previous, feedback)

@@ -143,8 +143,14 @@ MANIP_TEMPLATES: dict[str, Callable[[Spec], str]] = {
 def _register_more() -> None:
     """Add the templates of the other gripper tasks (book, ...), kept in their own modules."""
     from code_as_monitor.vlm.kb.book_templates import BOOK_TEMPLATES
+    from code_as_monitor.vlm.kb.drawer_templates import DRAWER_TEMPLATES
+    from code_as_monitor.vlm.kb.tea_templates import TEA_TEMPLATES
 
-    MANIP_TEMPLATES.update(BOOK_TEMPLATES)
+    for more in (BOOK_TEMPLATES, TEA_TEMPLATES, DRAWER_TEMPLATES):
+        clash = sorted(set(more) & set(MANIP_TEMPLATES))
+        if clash:
+            raise ValueError(f"kb template keys defined twice: {clash}")
+        MANIP_TEMPLATES.update(more)
 
 
 _register_more()

@@ -129,3 +129,21 @@ THRESHOLDS.update({
     # stow, upon: the spine within 20 degrees of vertical (the task's success tolerance).
     "standing": {"max_tilt": 0.35},
 })
+
+# --- pour-tea and open-drawer: their own modules ----------------------------------------------------------
+def _merge(more: dict[str, dict[str, float]]) -> None:
+    clash = sorted(set(more) & set(THRESHOLDS))
+    if clash:
+        raise ValueError(f"kb thresholds defined twice: {clash}")
+    THRESHOLDS.update(more)
+
+
+def _merge_more() -> None:
+    from code_as_monitor.vlm.kb.drawer_thresholds import DRAWER_THRESHOLDS
+    from code_as_monitor.vlm.kb.tea_thresholds import TEA_THRESHOLDS
+
+    _merge(TEA_THRESHOLDS)
+    _merge(DRAWER_THRESHOLDS)
+
+
+_merge_more()

@@ -1,0 +1,10 @@
+"""Monitor-code templates for the ``pour-tea`` constraints (same rules as :mod:`code_as_monitor.vlm.kb.templates`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from code_as_monitor.vlm.kb.templates import Spec
+
+TEA_TEMPLATES: dict[str, Callable[[Spec], str]] = {}
+"""Template key (constraint id prefix) -> writer, for the ``pour-tea`` constraints."""
