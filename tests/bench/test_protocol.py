@@ -12,8 +12,9 @@ def test_conditions_are_the_paper_rows():
     assert list(SUITES["cliport"]) == ["stack-p0", "stack-p0.15", "stack-p0.3", "stack-q1", "stack-q2",
                                        "stack-q3", "sweep-half", "rope"]
     assert list(SUITES["table2"]) == ["pen-none", "pen-a", "pen-b", "pen-c", "book-none", "book-a", "book-b",
-                                      "book-c"]
-    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0", "pen-none", "book-none"]
+                                      "book-c", "tea-none", "tea-a", "tea-b", "tea-c", "drawer-none", "drawer-slip"]
+    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0", "pen-none", "book-none", "tea-none",
+                                                           "drawer-none"]
     assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")
     assert BenchSpec().conditions == list(SUITES["cliport"])
     assert SUITE_DEFAULTS["table2"]["episodes"] == 10  # the paper's 10 runs per setting

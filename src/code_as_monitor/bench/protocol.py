@@ -4,7 +4,8 @@ Two suites. ``cliport``: the rows of the paper's Table 1 (supplementary "Detaile
 CLIPort"): stack-in-order with drop probability p in {0, 0.15, 0.3} (no placement noise), with
 placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
-(OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen and stow-book exist in our simulator so far.
+(OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen, stow-book, pour-tea, plus open-drawer
+(articulated, the paper's RLBench kind of object).
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -54,6 +55,16 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("book-b", "stow-book", {"disturbance": "b"}, "Stow book, (b) book tilted in transport",
               suite="table2"),
     Condition("book-c", "stow-book", {"disturbance": "c"}, "Stow book, (c) book laid flat after placement",
+              suite="table2"),
+    Condition("tea-none", "pour-tea", {}, "Pour tea, None", undisturbed=True, suite="table2"),
+    Condition("tea-a", "pour-tea", {"disturbance": "a"}, "Pour tea, (a) teapot tilts forward/back in transport",
+              suite="table2"),
+    Condition("tea-b", "pour-tea", {"disturbance": "b"}, "Pour tea, (b) teapot tilts sideways in transport",
+              suite="table2"),
+    Condition("tea-c", "pour-tea", {"disturbance": "c"}, "Pour tea, (c) teapot back to level while pouring",
+              suite="table2"),
+    Condition("drawer-none", "open-drawer", {}, "Open drawer, None", undisturbed=True, suite="table2"),
+    Condition("drawer-slip", "open-drawer", {"disturbance": "slip"}, "Open drawer, grasp slips off the handle",
               suite="table2"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
