@@ -7,6 +7,7 @@ import math
 import pytest
 
 from code_as_monitor.bench.metrics import (
+    FAILURE_KINDS,
     cell_summary,
     detection,
     failures,
@@ -59,6 +60,15 @@ def test_failures_merge_collapses_and_skip_block_fell():
           {"t": 9.0, "kind": "tower_collapsed", "obj": "g"}]
     assert [(f["t"], f["kind"]) for f in failures(gt)] == [(2.0, "drop"), (6.0, "tower_collapsed"),
                                                            (9.0, "tower_collapsed")]
+
+
+def test_gripper_task_disturbances_count_as_failures_and_are_kept_in_records():
+    from code_as_monitor.bench.episode import GT_KINDS
+
+    gt = [{"t": 1.0, "kind": "gripper_close", "obj": "pen"}, {"t": 3.0, "kind": "object_moved", "obj": "pen"},
+          {"t": 5.0, "kind": "grasp_perturbed", "obj": "book"}, {"t": 8.0, "kind": "object_knocked", "obj": "book"}]
+    assert [f["kind"] for f in failures(gt)] == ["object_moved", "grasp_perturbed", "object_knocked"]
+    assert set(FAILURE_KINDS) <= set(GT_KINDS)
 
 
 def test_matching_window_and_latency():

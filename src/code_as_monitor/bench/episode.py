@@ -24,7 +24,7 @@ log = logging.getLogger(__name__)
 RECORD_VERSION = 1
 OPEN_LOOP_VIDEO_HZ = 2.0
 GT_KINDS = ("drop", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
-            "opening_open")
+            "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone")
 """Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
 
 

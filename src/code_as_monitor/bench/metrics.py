@@ -10,8 +10,12 @@ time is excluded, as in the paper's CLIPort protocol.
 
 Detection against the simulator's ground-truth event log (:func:`detection`):
 
-- **Real failures** are ground-truth events of kind ``drop`` (the suction let a block go) and
-  ``tower_collapsed`` (a stacked block fell off). ``block_fell`` is the consequence of a drop and is
+- **Real failures** are ground-truth events of kind ``drop`` (the suction or the gripper let an object
+  go) and ``tower_collapsed`` (a stacked block fell off), and the gripper tasks' one-shot disturbances
+  (:mod:`code_as_monitor.sim.triggered`): ``object_moved`` (a pen or book moved under the gripper, a
+  holder moved during insertion), ``grasp_perturbed`` (the held object turned in the grasp),
+  ``object_knocked`` (a placed object knocked over), ``grasp_slipped`` (the grasp slipped off a handle)
+  and ``pour_undone`` (a pouring pot back to level). ``block_fell`` is the consequence of a drop and is
   not counted again; collapse events of several blocks within ``MERGE_S`` (1 s) count once. Sweep
   and rope have no discrete failure events (their failure is not stopping in time); their
   detection cells stay empty.
@@ -42,7 +46,8 @@ from typing import Any
 
 import numpy as np
 
-FAILURE_KINDS = ("drop", "tower_collapsed")
+FAILURE_KINDS = ("drop", "tower_collapsed", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped",
+                 "pour_undone")
 EARLY_S = 0.25
 WINDOW_S = 5.0
 MERGE_S = 1.0
