@@ -11,13 +11,19 @@ colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane 
   inside the yellow zone's image rectangle?
 - rope (top view): along the side of the square's outline that has no outline pixels (the opening),
   is there rope-coloured pixel near every sample point?
+- pen + holder and book + shelf (front view; rules in
+  :mod:`~code_as_monitor.baselines.vqa_standin_gripper`): is the item's image centre at the gripper's
+  image position (held, gripped, released)? is its blob's long axis along the image direction of
+  vertical (upright, standing)? is its lower end above the opening when low, or down inside the rim's
+  image box (over, aimed, inside, shelved)?
 
 Inputs it may use: ``view.rgb`` and ``view.camera`` (intrinsics/extrinsics of the chosen view) and
 the robot's proprioceptive tip position (``obs.robot.ee_points["tip"]``), projected into the image
 as a proxy for "where the gripper is in the picture". It never reads ``depth``, ``seg`` or
 ``obs.object_poses``. So it makes a single image's mistakes: a block lying on the table behind the
 tower looks "on top" in the front view, an offset along the viewing ray is invisible, the arm
-occludes blocks, touching blocks merge into one blob.
+occludes blocks, touching blocks merge into one blob; a tilt or an offset towards the camera is
+invisible, and an item lying behind a raised gripper looks held.
 """
 
 from __future__ import annotations
@@ -26,21 +32,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
 
 NAME = "vqa-standin"
 DESCRIPTION = "vqa-standin: a rule-based single-image VQA stand-in (not a VLM)"
 
-# OpenCV HSV (H in 0..179): (h_lo, h_hi, s_min, v_min); red wraps around 0.
-HSV_RANGES: dict[str, list[tuple[int, int, int, int]]] = {
+# OpenCV HSV (H in 0..179): (h_lo, h_hi, s_min, v_min[, s_max]); red wraps around 0. The flat-shaded
+# renderer keeps H and S of a face constant and changes only V, so the ranges are narrow in H.
+HSV_RANGES: dict[str, list[tuple[int, ...]]] = {
     "red": [(0, 4, 120, 60), (172, 179, 120, 60)],
     "green": [(45, 85, 100, 50)],
     "blue": [(100, 130, 120, 50)],
     "brick": [(3, 10, 120, 50)],  # sweep-half blocks
     "yellow": [(20, 32, 100, 120)],  # sweep-half zone
-    "orange": [(10, 18, 120, 100)],  # rope beads
+    "orange": [(10, 18, 120, 100)],  # rope beads; the pen holder's rim
+    "cream": [(20, 32, 50, 100, 140)],  # the book's spine (pale yellow: S ~95, under "yellow")
+    "teal": [(84, 96, 150, 60)],  # the bookshelf's slot rim
+    "wood": [(12, 17, 120, 50, 190)],  # the bookshelf's body (S ~155, under the holder rim's ~230)
 }
+# Also used by the gripper tasks: "blue" (pen body), "yellow" (pen tip), "green" (holder body), "red"
+# (book cover).
 NEAR_TIP_FRAC = (0.5, 0.6)
 """A blob counts as "on the suction cup" when its centre is within (0.5 blob widths sideways, 0 to 0.6
 blob widths below) the tip's image position."""
@@ -78,8 +91,8 @@ def color_mask(rgb: np.ndarray, color: str) -> np.ndarray:
     hsv = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2HSV)
     h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
     out = np.zeros(h.shape, dtype=bool)
-    for h0, h1, s0, v0 in HSV_RANGES[color]:
-        out |= (h >= h0) & (h <= h1) & (s >= s0) & (v >= v0)
+    for h0, h1, s0, v0, *s1 in HSV_RANGES[color]:
+        out |= (h >= h0) & (h <= h1) & (s >= s0) & (v >= v0) & (s <= (s1[0] if s1 else 255))
     return out
 
 
@@ -116,7 +129,8 @@ class VQAStandin:
         self._tip_z = 0.0
 
     def view_for(self, constraint: Constraint) -> str:
-        """The one view a question is asked on: top-down for counting and rope, front for stacking."""
+        """The one view a question is asked on: top-down for counting and rope, front for stacking and for
+        the gripper tasks (the top view sees the held pen or book only past the arm and hand above it)."""
         objs = {p.obj for p in constraint.parts}
         return "top" if objs & {"zone", "rope", "square"} else "front"
 
@@ -126,12 +140,17 @@ class VQAStandin:
         view = obs.views.get(name) or next(iter(obs.views.values()))
         key = constraint.id.split("_", 1)[0]
         objs = [p.obj for p in constraint.parts if p.obj != "robot"]
-        tip_uv = None
+        tip_uv, grip = None, Gripper(None, 0.0, 0.0)
         tip = obs.robot.ee_points.get("tip") if obs.robot is not None else None
         self._tip_z = float(tip[2]) if tip is not None else 0.0
         if tip is not None:
             uv, z = view.camera.project(np.asarray(tip, dtype=float)[None])
             tip_uv = uv[0] if z[0] > 0 else None
+            # pixels per metre at the gripper's depth (its own position: proprioception, not scene depth)
+            grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z)
+        got = GripperRules().answer(key, constraint, view, grip)
+        if got is not None:
+            return got
         if key in ("reached", "capped"):
             return self._count(constraint, view, key)
         if key == "rope":
