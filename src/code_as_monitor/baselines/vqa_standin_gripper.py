@@ -234,7 +234,8 @@ class GripperRules:
         max_dist = float(th.get("max_dist", 0.04))
         held = _near(s, g, max_dist)
         if key in ("steady", "aligned"):
-            if key == "steady" and g.z <= max_dist and not _near(s, g, max_dist + float(th.get("max_disp", 0.0))):
+            down = g.uv is not None and g.z <= max_dist  # the grasp point as low as an item between the fingers
+            if key == "steady" and down and not _near(s, g, max_dist + float(th.get("max_disp", 0.0))):
                 return A(False, f"the fingers are down at the table but {n} is not between them; it moved")
             return A(True, f"{n} lies on the table (one image shows no motion)")
         if key == "grasped":
