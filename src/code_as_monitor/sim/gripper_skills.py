@@ -7,8 +7,9 @@ looking again: a pen moved under the fingers is not followed, a dropped pen is n
 Skills (``Action.skill``, ``Action.args``):
 
 - ``grasp {"obj": name, "part": part optional}``: open the fingers, move above the object with the
-  closing axis across its long (local x) axis, descend until the grasp point is at the part's centre,
-  close, lift to carry height.
+  closing axis across its long (local x) axis (or across ``task.grasp_axis(world, obj, part)`` when the
+  task defines it), descend until the grasp point is at the part's centre, close, lift to carry height
+  (no lift when the grasp fixed a link of a fixed-base articulated body, such as a drawer's handle).
 - ``reorient {"obj": name, "axis": "vertical"}``: lift, turn (yaw) so that the tool will point away
   from the robot base, then tilt (pitch) so the held object's long axis points straight down
   (its ``tip`` end first).
@@ -85,7 +86,9 @@ class GripperSkills:
             raise SimError(f"grasp: {obj!r} has no part {part!r}")
         lo, hi = self._aabb(name)  # type: ignore[attr-defined]
         centre = (lo + hi) / 2
-        u = self._axis(obj)
+        # a task may name the direction to close across (a drawer's handle bar); else the object's long axis
+        grasp_axis = getattr(self.task, "grasp_axis", None)
+        u = self._axis(obj) if grasp_axis is None else np.asarray(grasp_axis(self.world, obj, part), float)
         # the tool's y axis along the object's long axis; the jaw is symmetric, so either way round
         # (the one nearest the current yaw: the last wrist joint has limits)
         yaw = float(np.arctan2(u[0], -u[1]))
@@ -100,6 +103,9 @@ class GripperSkills:
         yield from self.mover.wait(0.1)
         self._grip_close()
         yield from self.mover.wait(0.1)
+        att = self.world.robot.ee.attachment()
+        if att is not None and att[3] >= 0:  # a link of a fixed-base articulated body (a handle): no lift
+            return
         yield from self.mover.move([*centre[:2], top], speed=SLOW_SPEED * 2)
 
     def _reorient(self, obj: str, axis: str = "vertical") -> Iterator[None]:

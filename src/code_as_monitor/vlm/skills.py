@@ -36,6 +36,10 @@ DEFAULT_SKILLS: dict[str, str] = {
         'args {"obj": name, "target": name}: carry the held upright object (a book) above the target\'s slot, '
         "lower it in, open the gripper, retreat"
     ),
+    "pull": (
+        'args {"obj": name, "distance": metres}: pull the grasped handle straight out along the drawer\'s axis by '
+        "the distance, open the gripper, retreat"
+    ),
 }
 """Skill name -> one-line description of its arguments and behaviour."""
 

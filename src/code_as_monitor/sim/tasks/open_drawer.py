@@ -1,0 +1,178 @@
+"""``open-drawer`` (articulated object): grasp the drawer's handle and pull the drawer open.
+
+Description: a ``drawer_cabinet`` (``assets/drawer_cabinet.urdf``; a fixed-base articulated body, 26 cm
+deep, 28 cm wide, 11 cm tall) stands on the table with its front towards the robot. Parts, each its own
+link and so its own segmentation id: ``frame`` (the box, base link), ``drawer`` (front plate and tray, on
+a prismatic joint along the cabinet's local +x, 0 .. 25 cm) and ``handle`` (a 10 cm bar 3.5 cm in front
+of the drawer front, 5.5 cm above the table). Parallel-jaw gripper; its closed grasp of a fixed-base
+body fixes the grasped LINK (the handle) to the tool, so moving the tool drags the drawer along its
+joint. The joint has damping and a weak friction motor, so the drawer stays where it is left.
+Plan: ``grasp`` the handle (jaws across the bar; no lift), ``pull`` the drawer ``PULL_DISTANCE`` along
+its axis, open the gripper and retreat.
+
+Randomisation: the handle's centre at a distance [0.46, 0.54] m from the robot base at a bearing
+uniform in [-20, 20] degrees; the cabinet turned so that its front faces the robot base within
++-15 degrees (the pull goes towards the base, so the fully pulled handle stays within reach).
+
+Success: the drawer is open by at least ``OPEN_MIN`` (15 cm, its joint position) and the gripper has
+let go of it (nothing holds the cabinet), within the time limit.
+
+Disturbances (config ``disturbance``):
+``none``; ``slip``: mid-pull (the first tick the gripper holds the handle and the drawer is open by a
+distance uniform in [3, 7] cm) the grasp slips off the handle: the attachment is removed, the fingers
+stay closed (event ``grasp_slipped``). The open-loop policy keeps pulling air, opens and retreats; the
+drawer stays 3-7 cm open, so the open loop fails.
+Expected failure signals: the handle is no longer at the grasp point while the gripper pulls (the
+grasp point moves on along the pull, the handle and the drawer front stay); after the pull the drawer
+front has moved less than the required distance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.core.constraints import Action
+from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
+from code_as_monitor.sim.triggered import Triggered
+
+OBJ = "drawer_cabinet"
+OPEN_MIN = 0.15  # metres: open by over half the 23.5 cm tray depth (assets/drawer_cabinet.urdf), enough to reach in
+PULL_DISTANCE = 0.17  # metres the scripted pull moves the grasp point: OPEN_MIN plus 2 cm for the soft grasp's lag
+JOINT_LIMIT = 0.25  # metres, the prismatic joint's upper limit (assets/drawer_cabinet.urdf)
+HANDLE_OFFSET = 0.165  # handle centre ahead of the cabinet origin along local +x, closed: 0.13 + 0.035 m
+DRAWER_FRICTION = 0.5  # newtons: a 0.6 kg drawer on ball-bearing slides (friction coefficient below 0.1)
+SLIP_OPENING = (0.03, 0.07)  # metres open when the grasp slips (the ``slip`` disturbance)
+DISTURBANCES = ("none", "slip")
+
+
+def drawer_open(opening: float, held: bool, min_open: float = OPEN_MIN) -> tuple[bool, str]:
+    """Is the drawer open and let go? ``opening``: its joint position (metres out of the frame);
+    ``held``: the gripper still holds the cabinet (its handle)."""
+    if opening < min_open:
+        return False, f"the drawer is open {opening * 100:.1f} cm, less than {min_open * 100:.0f} cm"
+    if held:
+        return False, f"the drawer is open {opening * 100:.1f} cm but the gripper still holds the handle"
+    return True, f"the drawer is open {opening * 100:.1f} cm and released"
+
+
+@TaskConfig.register("open-drawer")
+@dataclass
+class OpenDrawerConfig(TaskConfig):
+    """``disturbance``: none or slip (the grasp slips off the handle mid-pull)."""
+
+    time_limit: float = 60.0
+    disturbance: str = "none"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.disturbance not in DISTURBANCES:
+            raise ConfigError(f"open-drawer.disturbance must be one of {', '.join(DISTURBANCES)}; "
+                              f"got {self.disturbance!r}")
+
+
+class OpenDrawer(Task):
+    ee_kind = "gripper"
+    instruction = "open the drawer by pulling its handle"
+
+    def __init__(self, config: OpenDrawerConfig) -> None:
+        super().__init__(config)
+        self.config: OpenDrawerConfig = config
+        self.joint = -1  # index of the drawer's prismatic joint (its child link is the ``drawer`` part)
+
+    def load_scene(self, world: Any) -> None:
+        import pybullet as pb
+
+        from code_as_monitor.sim.world import ASSETS
+
+        c = world.client
+        body = pb.loadURDF(str(ASSETS / "drawer_cabinet.urdf"), [0.65, 0.0, 0.0],
+                           pb.getQuaternionFromEuler([0, 0, np.pi]), useFixedBase=True, physicsClientId=c)
+        links = {pb.getJointInfo(body, j, physicsClientId=c)[12].decode(): j
+                 for j in range(pb.getNumJoints(body, physicsClientId=c))}
+        self.joint = links["drawer"]
+        # sliding friction as a velocity motor (target 0) with a small force: the drawer stays where it is left
+        pb.setJointMotorControl2(body, self.joint, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=DRAWER_FRICTION,
+                                 physicsClientId=c)
+        for link in (-1, *links.values()):
+            pb.changeDynamics(body, link, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
+        world.add_object(OBJ, [body], parts={"frame": (body, -1), "drawer": (body, links["drawer"]),
+                                             "handle": (body, links["handle"])}, graspable=True)
+
+    def reset(self, world: Any) -> None:
+        import pybullet as pb
+
+        rng, c = world.rng, world.client
+        r, bearing = rng.uniform(0.46, 0.54), rng.uniform(-np.radians(20), np.radians(20))
+        handle = r * np.array([np.cos(bearing), np.sin(bearing)])
+        yaw = bearing + np.pi + rng.uniform(-np.radians(15), np.radians(15))  # local +x towards the base
+        origin = handle - HANDLE_OFFSET * np.array([np.cos(yaw), np.sin(yaw)])
+        body = world.body_of(OBJ)
+        pb.resetBasePositionAndOrientation(body, [*origin, 0.0], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                           physicsClientId=c)
+        pb.resetJointState(body, self.joint, 0.0, 0.0, physicsClientId=c)
+
+    # --- interface used by the gripper and drawer skills ---------------------------------------------
+    def opening(self, world: Any) -> float:
+        """The drawer's joint position: metres it is pulled out of the frame (0 closed)."""
+        import pybullet as pb
+
+        return float(pb.getJointState(world.body_of(OBJ), self.joint, physicsClientId=world.client)[0])
+
+    def pull_axis(self, world: Any, obj: str) -> np.ndarray:
+        """(3,) world unit direction in which the drawer opens (the cabinet's local +x)."""
+        return world.pose(obj)[:3, 0].copy()
+
+    def grasp_axis(self, world: Any, obj: str, part: str = "") -> np.ndarray:
+        """(3,) world direction the jaws close ACROSS: for the handle, its bar (the handle link's local y)."""
+        if part == "handle":
+            return world.pose(f"{obj}/handle")[:3, 1].copy()
+        return world.pose(obj)[:3, 1].copy()
+
+    def evaluate(self, world: Any) -> TaskResult:
+        q = self.opening(world)
+        held = world.robot.ee.holding == world.body_of(OBJ)
+        ok, reason = drawer_open(q, held)
+        info = {"t": world.t, "opening": q, "handle": world.position(f"{OBJ}/handle").tolist()}
+        if ok and world.t > self.config.time_limit + 1e-9:
+            ok, reason = False, f"opened after the time limit ({world.t:.1f} s)"
+        return TaskResult(ok, reason, info)
+
+    def default_plan(self) -> list[Action]:
+        return [
+            Action("grasp", {"obj": OBJ, "part": "handle"}),
+            Action("pull", {"obj": OBJ, "distance": PULL_DISTANCE}),
+        ]
+
+    # --- disturbances --------------------------------------------------------------------------------
+    def disturbances(self, seed: int = 0) -> list[Any]:
+        if self.config.disturbance == "slip":
+            return [Triggered("slip", _PullSlip(self, seed), _slip_off_handle, [seed, 31])]
+        return []
+
+
+class _PullSlip:
+    """Condition: the gripper holds the cabinet and the drawer is open by a distance drawn once, uniform in
+    ``SLIP_OPENING`` (from its own generator, so the moment does not depend on other draws)."""
+
+    def __init__(self, task: OpenDrawer, seed: int) -> None:
+        self.task = task
+        self.at = float(np.random.default_rng([seed, 32]).uniform(*SLIP_OPENING))
+
+    def __call__(self, world: Any) -> bool:
+        if world.robot.ee.holding != world.body_of(OBJ):
+            return False
+        return self.task.opening(world) >= self.at
+
+
+def _slip_off_handle(world: Any, rng: np.random.Generator) -> None:
+    """Effect: the grasp slips off the handle: the attachment goes, the fingers stay closed (the open-loop
+    policy does not know)."""
+    body = world.robot.ee.detach()
+    world.events.log(world.t, "grasp_slipped", world.name_of(body), tip=world.robot.tip().tolist())
+
+
+OpenDrawerConfig.task_class = OpenDrawer
