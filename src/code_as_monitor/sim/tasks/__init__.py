@@ -1,6 +1,7 @@
 """Simulator tasks, registered on :class:`TaskConfig` by id. Importing this package registers them."""
 
 from code_as_monitor.sim.tasks import (  # noqa: F401
+    pour_tea,
     open_drawer,
     rope_close_square,
     slot_pen,
