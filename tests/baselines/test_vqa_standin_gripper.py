@@ -96,8 +96,8 @@ def test_pen_lying_on_the_table(pen_scene):
     assert not _ask(PEN, "upright_turned", o)
     assert not _ask(PEN, "inside", o)
     assert _ask(PEN, "freed", o)
-    # the fingers are down at the table 8 cm to the side of the pen: it is not between them
-    assert not _ask(PEN, "steady", pen_scene.obs((0.47, 0.02, 0.01)))
+    # the fingers are down at the table ~9 cm past the pen's tip end: it is not between them
+    assert not _ask(PEN, "steady", pen_scene.obs((0.50, 0.27, 0.01)))
     # the fingers down on the pen
     down = pen_scene.obs((0.47, 0.10, 0.01))
     assert _ask(PEN, "steady", down) and _ask(PEN, "grasped", down) and not _ask(PEN, "lifted", down)
@@ -109,6 +109,11 @@ def test_pen_held_upright_then_carried_over_the_holder(pen_scene):
     for key in ("grasped", "lifted", "gripped", "carried", "upright", "upright_turned", "over"):
         assert _ask(PEN, key, o), key
     assert not _ask(PEN, "freed", o) and not _ask(PEN, "inside", o)
+    # held near its upper end (the grasp point 6 cm above the pen's centre): still in the gripper, whose
+    # element of the pen is its axis (a LINE), not its centre
+    pen_scene.put("pen", (0.47, 0.08, 0.16), axis=(0.0, 0.0, -1.0))
+    o = pen_scene.obs((0.47, 0.08, 0.22))
+    assert _ask(PEN, "gripped", o) and _ask(PEN, "carried", o) and not _ask(PEN, "freed", o)
     # tilted 35 degrees sideways (across the view): visibly not upright
     pen_scene.put("pen", (0.47, 0.08, 0.22), axis=(0.0, np.sin(0.61), -np.cos(0.61)))
     o = pen_scene.obs((0.47, 0.08, 0.22))
@@ -125,6 +130,7 @@ def test_pen_in_the_holder_and_released(pen_scene):
     pen_scene.put("pen", (0.45, -0.12, 0.092), axis=(0.0, 0.0, -1.0))
     o = pen_scene.obs((0.40, -0.12, 0.30))
     assert _ask(PEN, "inside", o) and _ask(PEN, "freed", o) and _ask(PEN, "carried", o)
+    assert _ask(PEN, "upright", o)  # insert's during "near vertical while carried": let go, nothing to check
     assert not _ask(PEN, "gripped", o)
 
 

@@ -8,8 +8,9 @@ history. Every answer comes from colour blobs and 2-D image-plane geometry:
 
 - the item's pixels (pen: blue body + yellow tip; book: red cover + cream spine) give a centre, a
   principal axis (PCA of the pixel coordinates), how elongated it is, and its lower end in the image;
-- "in the gripper": the item's image centre within the constraint's distance of the grasp point's
-  image position, the distance converted to pixels at the grasp point's depth;
+- "in the gripper": the item (its image centre, or its axis segment when the constraint's element of
+  it is a LINE, as the pen's is) within the constraint's distance of the grasp point's image position,
+  the distance converted to pixels at the grasp point's depth;
 - "upright": the principal axis within the constraint's angle of the image direction of world
   vertical at that spot (the vertical vanishing point of the camera: a VQA model knows which way is up
   in a picture); a blob too round to have an axis is "not clearly upright";
@@ -24,18 +25,19 @@ kind                 answer from the one image
 steady, aligned      yes while the item is visible (one image shows no motion); ``steady`` also says no
                      when the fingers are down at the table (grasp point height) and the item is not
                      between them
-grasped              the item's centre at the grasp point (``max_dist``)
+grasped              the item (centre or axis) at the grasp point (``max_dist``)
 lifted               grasped, and the grasp point above ``min_z`` (proprioception)
-gripped              the item's centre at the grasp point (``max_dist``)
+gripped              the item (centre or axis) at the grasp point (``max_dist``)
 carried, conveyed    at the grasp point, or its lower end already inside the container's opening
 upright, standing    axis within ``max_tilt`` of image vertical, blob elongated
-poised               when held: as ``upright``; not held: nothing to check (yes)
+poised               when held: as ``upright``; not held: nothing to check (yes); so is ``upright`` as a
+                     during constraint ("while it is carried"): a pen let go leaning in the holder is fine
 over, aimed          when the lower end is low (below the rim box's bottom edge, the rim's front edge in
                      the picture, less ``approach``): its horizontal image offset from the rim box's
                      centre within ``max_offset``; the container hidden: no sign of a miss (yes)
 inside, shelved      the lower end inside the rim box horizontally, between the rim box's middle and
                      the container body's bottom edge vertically
-freed                the item's centre farther than ``release_dist`` from the grasp point
+freed                the item (centre or axis) farther than ``release_dist`` from the grasp point
 =================== ==================================================================================
 
 The mistakes of one image (and of these rules), on purpose: offsets and tilts along the viewing ray
@@ -55,7 +57,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from code_as_monitor.core.constraints import Constraint
+from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.core.observation import View
 
 if TYPE_CHECKING:
@@ -78,7 +80,8 @@ MIN_PIXELS = 12
 @dataclass(frozen=True)
 class Shape:
     """An item's pixels in one image: centre (u, v) px, unit principal axis (pointing down the image),
-    elongation (long/short, sqrt of the PCA eigenvalue ratio), lower end (u, v) px, pixel count."""
+    elongation (long/short, sqrt of the PCA eigenvalue ratio), lower and upper ends along the axis
+    (u, v) px, pixel count."""
 
     u: float
     v: float
@@ -86,6 +89,7 @@ class Shape:
     elongation: float
     low: tuple[float, float]
     area: int
+    high: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -158,9 +162,10 @@ def shape_of(rgb: np.ndarray, item: str) -> Shape | None:
         axis = -axis
     proj = (pts - c) @ axis
     low = c + axis * float(np.percentile(proj, 98))
+    high = c + axis * float(np.percentile(proj, 2))
     elong = float(np.sqrt(evals[1] / max(evals[0], 1e-6)))
     return Shape(float(c[0]), float(c[1]), (float(axis[0]), float(axis[1])), elong,
-                 (float(low[0]), float(low[1])), len(us))
+                 (float(low[0]), float(low[1])), len(us), (float(high[0]), float(high[1])))
 
 
 def box_of(rgb: np.ndarray, container: str) -> Box | None:
@@ -192,11 +197,19 @@ def tilt_deg(view: View, s: Shape) -> float:
     return float(np.degrees(np.arccos(min(1.0, c))))
 
 
-def _near(s: Shape, g: Gripper, dist_m: float) -> bool:
-    """The item's image centre within ``dist_m`` (converted at the grasp point's depth) of the grasp point."""
+def _near(s: Shape, g: Gripper, dist_m: float, line: bool = False) -> bool:
+    """The item within ``dist_m`` (converted to pixels at the grasp point's depth) of the grasp point in
+    the image: its centre, or with ``line`` its axis segment (a pen held near one end is still held)."""
     if g.uv is None:
         return False
-    return float(np.hypot(s.u - g.uv[0], s.v - g.uv[1])) <= dist_m * g.px_per_m
+    p = np.asarray(g.uv, float)
+    if line:
+        a, b = np.asarray(s.high), np.asarray(s.low)
+        t = float(np.clip(np.dot(p - a, b - a) / max(float(np.dot(b - a, b - a)), 1e-9), 0.0, 1.0))
+        q = a + t * (b - a)
+    else:
+        q = np.array([s.u, s.v])
+    return float(np.linalg.norm(p - q)) <= dist_m * g.px_per_m
 
 
 def _in_opening(s: Shape, b: Box) -> bool:
@@ -231,11 +244,13 @@ class GripperRules:
             if key == "freed":
                 return A(True, f"{n} is not visible near the gripper")
             return A(False, f"cannot see {n} in the image; it may have been moved or dropped")
+        # the constraint's element of the item: a LINE (the pen's axis) or a point (the book's centre)
+        line = any(p.obj == obj and str(getattr(p.kind, "value", p.kind)) == "line" for p in c.parts)
         max_dist = float(th.get("max_dist", 0.04))
-        held = _near(s, g, max_dist)
+        held = _near(s, g, max_dist, line)
         if key in ("steady", "aligned"):
             down = g.uv is not None and g.z <= max_dist  # the grasp point as low as an item between the fingers
-            if key == "steady" and down and not _near(s, g, max_dist + float(th.get("max_disp", 0.0))):
+            if key == "steady" and down and not _near(s, g, max_dist + float(th.get("max_disp", 0.0)), line):
                 return A(False, f"the fingers are down at the table but {n} is not between them; it moved")
             return A(True, f"{n} lies on the table (one image shows no motion)")
         if key == "grasped":
@@ -253,8 +268,9 @@ class GripperRules:
                 return A(True, f"{n} is already down in the opening of {t}")
             return A(False, f"{n} dropped: it is no longer held by the gripper")
         if key in ("upright", "standing", "poised"):
-            if key == "poised" and not held:
-                return A(True, f"{n} is not held above {t}; nothing to check")
+            # "while held/carried" (poised, and upright as a during constraint): let go, nothing to check
+            if (key == "poised" or (key == "upright" and c.phase is Phase.DURING)) and not held:
+                return A(True, f"{n} is not held any more; nothing to check")
             tilt = tilt_deg(view, s)
             limit = float(np.degrees(float(th.get("max_tilt", 0.26))))
             if s.elongation < MIN_ELONGATION:
@@ -282,7 +298,7 @@ class GripperRules:
             return (A(True, f"{n} is down in the opening of {t}") if _in_opening(s, b)
                     else A(False, f"{n} is not inside {t}"))
         if key == "freed":
-            far = not _near(s, g, float(th.get("release_dist", 0.05)))
+            far = not _near(s, g, float(th.get("release_dist", 0.05)), line)
             return (A(True, f"{n} is released: the gripper is away from it") if far
                     else A(False, f"{n} is still held by the gripper"))
         return A(True, f"no visible problem with {n}")
