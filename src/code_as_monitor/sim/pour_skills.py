@@ -16,7 +16,8 @@ Skills (``Action.skill``, ``Action.args``):
   use (:func:`~code_as_monitor.sim.gripper_skills.tilted_yaw`, inside the wrist's limits), until the spout's
   end is ``TRANSPORT_CLEAR`` above the centre of the target's rim.
 - ``pour {"obj", "target"}``: tilt the pot to ``POUR_TILT`` from level, pivoting about the spout's end, which
-  moves to ``POUR_CLEAR`` above the rim's centre (the tea runs out of the spout once the trough slopes down).
+  moves to ``POUR_CLEAR`` above the rim's centre (``POUR_AIM_BACK`` short of it). The tea runs out of the spout
+  once the trough slopes down.
 - ``drain {"obj", "target"}``: hold the pose for ``DRAIN_S`` seconds while the tea runs out.
 - ``level {"obj"}``: turn the wrist so that the held pot is level again (tea left in the spout rolls back).
 - ``set_down {"obj"}``: carry the held pot to a free spot of table at least ``SET_DOWN_AWAY`` from the cup
@@ -134,8 +135,8 @@ class PourSkills:
         st = self._spout_in_tool()
         fwd = tool_rotation(self.mover.yaw, pitch) @ (st / max(float(np.linalg.norm(st)), 1e-9))
         fwd = fwd[:2] / max(float(np.linalg.norm(fwd[:2])), 1e-9)  # horizontal direction from the grasp to the spout
-        aim = centre - POUR_AIM_BACK * fwd
-        yield from self._pivot(st, np.array([*aim, rim_top + POUR_CLEAR]), pitch, POUR_RATE)
+        aim = np.array([*(centre - POUR_AIM_BACK * fwd), rim_top + POUR_CLEAR])
+        yield from self._pivot(st, aim, pitch, POUR_RATE)
 
     def _drain(self, obj: str, target: str) -> Iterator[None]:
         yield from self.mover.wait(DRAIN_S)

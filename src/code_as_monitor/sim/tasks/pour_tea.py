@@ -1,9 +1,9 @@
 """``pour-tea`` (surface level, the paper's OmniGibson "Pour Tea"): pour the tea from the teapot into the teacup.
 
 Description: a ``teapot`` (parts ``body``, ``spout``, ``lid`` and ``handle``; an 11 x 11 x 8.6 cm lidded pot,
-its local +x towards the spout, the spout an open trough rising 35 degrees from an opening at the foot of the
-front wall, the handle a vertical fin on the back wall; ``assets/teapot.urdf``) holds ``N_TEA`` small spheres
-of "tea"; a ``teacup`` (parts ``body`` and ``rim``; a square cup with an 8.2 cm opening, 7 cm tall) stands
+its local +x towards the spout, the spout an open funnel-shaped trough rising 35 degrees from an opening across
+the foot of the front wall, the handle a vertical fin on the back wall; ``assets/teapot.urdf``) holds ``N_TEA``
+small spheres of "tea"; a ``teacup`` (parts ``body`` and ``rim``; a square cup with an 8.2 cm opening, 7 cm tall) stands
 nearby. Parallel-jaw gripper. Plan: ``grasp`` the pot by its handle, ``transport`` it level until the spout's
 end is above the cup, ``pour`` (tilt it forward past the pour angle, pivoting about the spout's end over the
 cup), ``drain`` (hold it tilted while the tea runs out), ``level`` it again. The pot stays in the gripper at
@@ -50,8 +50,7 @@ POT_TOP = 0.086  # top of the lid above the pot's bottom
 POT_WALL = 0.006  # wall and floor thickness
 SPOUT_BASE = np.array([0.055, 0.0, 0.006])  # spout trough's start (the opening's sill), pot frame
 SPOUT_SLOPE = np.radians(35.0)  # the trough rises this much above the pot's floor plane
-SPOUT_LEN = 0.09  # trough length
-SPOUT_HALF_IN = 0.049  # half the trough's inner width
+SPOUT_LEN = 0.09  # trough length along the slope
 SPOUT_WALL = 0.025  # trough side wall height
 SPOUT_END = SPOUT_BASE + SPOUT_LEN * np.array([np.cos(SPOUT_SLOPE), 0.0, np.sin(SPOUT_SLOPE)])  # (0.129, 0, 0.058)
 CUP_HALF_IN = 0.041  # half the cup's inner opening
@@ -61,7 +60,7 @@ CUP_FLOOR = 0.005
 # --- tea ----------------------------------------------------------------------------------------------------
 N_TEA = 30  # particles; 30 keep the simulator near real time (see the tests' sim-speed note)
 TEA_RADIUS = 0.0055  # metres
-TEA_MASS = 0.0015  # kg each (45 g of tea in all)
+TEA_MASS = 0.0015  # kg each (45 g of tea in all; a heavier load makes the soft grasp sag more)
 MIN_IN_CUP = 0.5  # success: at least this fraction of the tea in the cup ...
 MAX_SPILLED = 0.2  # ... and at most this fraction spilled
 
@@ -71,24 +70,27 @@ DISTURBANCES = {"none": "none", "a": "tilt_forward", "b": "tilt_sideways", "c": 
                 "tilt_forward": "tilt_forward", "tilt_sideways": "tilt_sideways", "unpour": "unpour"}
 
 
-def tea_state(points: np.ndarray, pot_pose: np.ndarray, spout_pose: np.ndarray, cup_pose: np.ndarray) -> np.ndarray:
+def tea_state(points: np.ndarray, pot_pose: np.ndarray, cup_pose: np.ndarray) -> np.ndarray:
     """Where each tea particle is: (N,) strings ``"cup"``, ``"pot"`` or ``"spilled"``.
 
-    ``points`` (N, 3) particle centres, world metres; ``pot_pose``, ``spout_pose``, ``cup_pose`` (4, 4) world poses
-    of the pot's base (bottom centre), its spout link (the trough's start, x along the trough) and the cup's base.
-    A particle is in the cup when its centre lies inside the cup's inner box (up to 2 cm above the rim: a particle
-    landing on top of others); in the pot when inside the pot's body box or the spout trough."""
+    ``points`` (N, 3) particle centres, world metres; ``pot_pose``, ``cup_pose`` (4, 4) world poses of the pot's
+    and the cup's base (bottom centre). A particle is in the cup when its centre lies inside the cup's inner box
+    (up to 2 cm above the rim: a particle landing on top of others); in the pot when inside the pot's body box
+    or over the funnel and spout (a box along the 35-degree slope from the opening's sill)."""
     P = np.asarray(points, float).reshape(-1, 3)
 
     def local(T: np.ndarray) -> np.ndarray:
         return (P - T[:3, 3]) @ T[:3, :3]
 
-    c, p, s = local(cup_pose), local(pot_pose), local(spout_pose)
+    c, p = local(cup_pose), local(pot_pose)
+    ca, sa = np.cos(SPOUT_SLOPE), np.sin(SPOUT_SLOPE)
+    d = p - SPOUT_BASE
+    s = np.stack([d[:, 0] * ca + d[:, 2] * sa, d[:, 1], -d[:, 0] * sa + d[:, 2] * ca], axis=1)  # slope frame
     in_cup = (np.abs(c[:, 0]) <= CUP_HALF_IN) & (np.abs(c[:, 1]) <= CUP_HALF_IN) & (c[:, 2] >= 0.0) & (
         c[:, 2] <= CUP_TOP + 0.02)
     in_body = (np.abs(p[:, 0]) <= POT_HALF) & (np.abs(p[:, 1]) <= POT_HALF) & (p[:, 2] >= -0.005) & (
         p[:, 2] <= POT_TOP)
-    in_spout = (s[:, 0] >= -0.01) & (s[:, 0] <= SPOUT_LEN + 0.005) & (np.abs(s[:, 1]) <= SPOUT_HALF_IN + 0.006) & (
+    in_spout = (s[:, 0] >= -0.01) & (s[:, 0] <= SPOUT_LEN + 0.005) & (np.abs(s[:, 1]) <= POT_HALF) & (
         s[:, 2] >= -0.01) & (s[:, 2] <= SPOUT_WALL + 0.01)
     return np.where(in_cup, "cup", np.where(in_body | in_spout, "pot", "spilled"))
 
@@ -190,8 +192,7 @@ class PourTea(Task):
 
     def tea_labels(self, world: Any) -> np.ndarray:
         """(N,) "cup" / "pot" / "spilled" per particle (see :func:`tea_state`)."""
-        return tea_state(self.tea_points(world), world.pose("teapot"), world.pose("teapot/spout"),
-                         world.pose("teacup"))
+        return tea_state(self.tea_points(world), world.pose("teapot"), world.pose("teacup"))
 
     def evaluate(self, world: Any) -> TaskResult:
         labels = self.tea_labels(world)
