@@ -164,6 +164,11 @@ class Gripper(Suction):
     tip_length = 0.06
     grasp_tol = 0.01  # metres the grasp point may lie outside a link's bounding box
     open_width = 0.04  # per finger, metres from the centre
+    pad_clearance = 0.01
+    """Metres each finger stops short of a grasped fixed-base link (a handle bar). With the fingers set right
+    at the bar, the fixed-constraint grasp of an articulated link turned compliant in PyBullet (a pulled
+    drawer lagged the tool by 1-4 cm, measured; the fingers carry no collision shapes, so this is a solver
+    artefact we did not get to the bottom of); 1 cm off, the lag is a few millimetres."""
     tilts = True
     hold_force = 200.0
 
@@ -217,8 +222,27 @@ class Gripper(Suction):
         rpos, rorn = pb.multiplyTransforms(ipos, iorn, opos, oorn)
         self.attach(b, rpos, rorn, at)
         x_axis = np.reshape(pb.getMatrixFromQuaternion(torn), (3, 3))[:, 0]
-        self._fingers(float(np.clip(np.abs(x_axis) @ (hi - lo) / 2, 0.0, self.open_width)))
+        half = _half_extent_along(c, b, link, x_axis) if at >= 0 else None
+        if half is None:  # a free body (or not all boxes): the world bounding box's extent along the closing axis
+            half = float(np.abs(x_axis) @ (hi - lo) / 2)
+        else:  # a link of a fixed-base body (a handle): its own width, plus the pads' clearance
+            half += self.pad_clearance
+        self._fingers(float(np.clip(half, 0.0, self.open_width)))
         return b, at
+
+    def finger_points(self) -> dict[str, np.ndarray]:
+        """World positions (3,) of the fingers at the grasp point's depth, ``finger_left`` / ``finger_right``:
+        the tool tip moved out along the closing axis by each finger's joint position. Their distance is the
+        jaw opening (8 cm open, closed on a handle its width plus 2 ``pad_clearance``, 0 closed on nothing);
+        proprioception."""
+        import pybullet as pb
+
+        c = self.client
+        pos, orn = pb.getBasePositionAndOrientation(self.body, physicsClientId=c)
+        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+        q = [s[0] for s in pb.getJointStates(self.body, [0, 1], physicsClientId=c)]
+        tip = np.asarray(pos) + R[:, 2] * self.tip_length
+        return {"finger_left": tip + R[:, 0] * q[0], "finger_right": tip - R[:, 0] * q[1]}
 
     def attachment(self) -> tuple | None:
         """(body, rel_pos, rel_orn, link) of the grasped object, or None (for save/restore)."""
@@ -236,6 +260,28 @@ class Gripper(Suction):
 
     def release(self) -> int | None:
         return self.open()
+
+
+def _half_extent_along(client: int, body: int, link: int, axis: np.ndarray) -> float | None:
+    """Half the extent (metres) of ``body``'s ``link`` along the world direction ``axis`` (3,), from its
+    collision boxes in their own orientation (a yawed bar is as thin as it is, unlike its world bounding
+    box); None unless all are boxes."""
+    import pybullet as pb
+
+    shapes = pb.getCollisionShapeData(body, link, physicsClientId=client)
+    if not shapes or any(sh[2] != pb.GEOM_BOX for sh in shapes):
+        return None
+    if link < 0:
+        fpos, forn = pb.getBasePositionAndOrientation(body, physicsClientId=client)
+    else:
+        fpos, forn = pb.getLinkState(body, link, computeForwardKinematics=True, physicsClientId=client)[:2]
+    lo, hi = np.inf, -np.inf
+    for sh in shapes:  # the shape frames are given in the link's inertial frame
+        pos, orn = pb.multiplyTransforms(fpos, forn, sh[5], sh[6])
+        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+        centre, half = float(np.dot(pos, axis)), float(np.abs(R.T @ axis) @ np.asarray(sh[3]) / 2)
+        lo, hi = min(lo, centre - half), max(hi, centre + half)
+    return (hi - lo) / 2
 
 
 def make_end_effector(kind: str, client: int) -> EndEffector:

@@ -214,8 +214,12 @@ class World:
     # --- observation --------------------------------------------------------------------------------------
     def robot_state(self) -> RobotState:
         T = self.robot.ee_pose()
+        points = {"tip": T[:3, 3].copy()}
+        fingers = getattr(self.robot.ee, "finger_points", None)
+        if fingers is not None:  # the gripper's jaws (their distance is the jaw opening)
+            points.update(fingers())
         return RobotState(ee_pose=T, gripper=self.robot.ee.gripper_value(), ee_kind=self.robot.ee.kind,
-                          ee_points={"tip": T[:3, 3].copy()}, joints=self.robot.joints())
+                          ee_points=points, joints=self.robot.joints())
 
     def render(self) -> dict[str, View]:
         labels = self.seg_labels()

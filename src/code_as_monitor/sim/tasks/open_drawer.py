@@ -1,12 +1,14 @@
 """``open-drawer`` (articulated object): grasp the drawer's handle and pull the drawer open.
 
 Description: a ``drawer_cabinet`` (``assets/drawer_cabinet.urdf``; a fixed-base articulated body, 26 cm
-deep, 28 cm wide, 11 cm tall) stands on the table with its front towards the robot. Parts, each its own
+deep, 28 cm wide, 10 cm tall) stands on the table with its front towards the robot. Parts, each its own
 link and so its own segmentation id: ``frame`` (the box, base link), ``drawer`` (front plate and tray, on
-a prismatic joint along the cabinet's local +x, 0 .. 25 cm) and ``handle`` (a 10 cm bar 3.5 cm in front
-of the drawer front, 5.5 cm above the table). Parallel-jaw gripper; its closed grasp of a fixed-base
-body fixes the grasped LINK (the handle) to the tool, so moving the tool drags the drawer along its
-joint. The joint has damping and a weak friction motor, so the drawer stays where it is left.
+a prismatic joint along the cabinet's local +x, 0 .. 25 cm; its front plate laid over the frame's front)
+and ``handle`` (a 10 cm bar 3.5 cm in front of the drawer front, 8 cm above the table, so that the front
+camera sees it over the cabinet while the gripper's hand hides it from the top camera). Parallel-jaw
+gripper; its closed grasp of a fixed-base body fixes the grasped LINK (the handle) to the tool, so moving
+the tool drags the drawer along its joint. The joint has damping and a weak friction motor, so the drawer
+stays where it is left.
 Plan: ``grasp`` the handle (jaws across the bar; no lift), ``pull`` the drawer ``PULL_DISTANCE`` along
 its axis, open the gripper and retreat.
 
@@ -40,10 +42,10 @@ from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 from code_as_monitor.sim.triggered import Triggered
 
 OBJ = "drawer_cabinet"
-OPEN_MIN = 0.15  # metres: open by over half the 23.5 cm tray depth (assets/drawer_cabinet.urdf), enough to reach in
+OPEN_MIN = 0.15  # metres: open by over half the 22 cm tray depth (assets/drawer_cabinet.urdf), enough to reach in
 PULL_DISTANCE = 0.17  # metres the scripted pull moves the grasp point: OPEN_MIN plus 2 cm for the soft grasp's lag
 JOINT_LIMIT = 0.25  # metres, the prismatic joint's upper limit (assets/drawer_cabinet.urdf)
-HANDLE_OFFSET = 0.165  # handle centre ahead of the cabinet origin along local +x, closed: 0.13 + 0.035 m
+HANDLE_OFFSET = 0.18  # handle centre ahead of the cabinet origin along local +x, closed: 0.13 + 0.015 + 0.035 m
 DRAWER_FRICTION = 0.5  # newtons: a 0.6 kg drawer on ball-bearing slides (friction coefficient below 0.1)
 SLIP_OPENING = (0.03, 0.07)  # metres open when the grasp slips (the ``slip`` disturbance)
 DISTURBANCES = ("none", "slip")
