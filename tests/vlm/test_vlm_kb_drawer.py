@@ -74,7 +74,7 @@ def _scene(yaw: float, subgoal: str) -> dict:
     if subgoal == "grasp":
         tip, jaw = np.array([0.32, -0.33, 0.30]), 0.04  # parked, open
     elif subgoal == "regrasp":
-        tip, jaw = h + 0.05 * u, 0.016  # halted after a slip: beyond the handle, jaws closed
+        tip, jaw = h + 0.03 * u, 0.016  # halted just after a slip was seen: beyond the handle, jaws closed
     else:
         tip, jaw = h + np.array([0.0, 0.0, 0.002]), 0.016  # holding the handle
     side = np.array([-u[1], u[0], 0.0])

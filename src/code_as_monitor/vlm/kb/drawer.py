@@ -76,13 +76,13 @@ def _frame(obj: str) -> dict[str, str]:
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:
-    """``grasp`` the handle: during (proactive) the handle stays put until it is between the fingers; upon, it is
-    at the grasp point (no lift: the drawer runs on its rails)."""
+    """``grasp`` the handle: during (proactive) the handle stays put; upon, it is at the grasp point and the jaws
+    are closed (no lift: the drawer runs on its rails)."""
     st, gr, js = thresholds("drawer_still"), thresholds("drawer_handle_grip"), thresholds("drawer_jaw_shut")
     return [
         _c(f"drawerstill_{obj}", f"the handle of {nice(obj)} stays where it is (within {st['max_disp'] * 100:.0f} cm) "
-           f"until it is between the fingers; if the drawer moves, the jaws close on nothing", "during", True, st,
-           [GRIP_TIP, _handle(obj)]),
+           f"while the gripper approaches and closes; if the drawer moves, the jaws close on nothing", "during", True,
+           st, [_handle(obj)]),
         _c(f"handlegrip_{obj}", f"the handle of {nice(obj)} is between the fingers: its centre within "
            f"{gr['max_dist'] * 100:.0f} cm of the grasp point", "upon", False, gr, [GRIP_TIP, _handle(obj)]),
         _c(f"jawshut_{obj}", f"the gripper's jaws are closed on the handle of {nice(obj)}: their opening between "

@@ -37,17 +37,16 @@ def _opened(h: int, dr: int, fr: int) -> str:
 
 
 def drawerstill(c: Spec) -> str:
-    """Parts: [tip (point), handle (point)]. The handle has not moved, or it is already between the fingers."""
-    tip, h = c["element_ids"][:2]
-    th, hn = c["thresholds"], _name(c, 1)
-    md, mx = _f(th["max_dist"]), _f(th["max_disp"])
+    """Parts: [handle (point)]. The handle has not moved since the grasp began (it is never lifted: a grasped
+    handle stays where it is too, so this needs no "unless held" escape)."""
+    (h,) = c["element_ids"][:1]
+    th, hn = c["thresholds"], _name(c, 0)
+    mx = _f(th["max_disp"])
     body = f"""
     m = displacement(H[{h}])
-    d = distance(E[{tip}], centroid(E[{h}]))
-    margin = np.max([{mx} - m, {md} - d])
-    if m <= {mx} or d <= {md}:
-        return True, {_q("the handle of " + hn + " stays where it was or is between the fingers (moved %.3f m, %.3f m from the grasp point)")} % (m, d), margin
-    return False, {_q("the handle of " + hn + " moved %.3f m while the gripper approached and is %.3f m from the grasp point: the jaws will close on nothing")} % (m, d), margin
+    if m <= {mx}:
+        return True, {_q("the handle of " + hn + " stays where it was (moved %.3f m)")} % m, {mx} - m
+    return False, {_q("the handle of " + hn + " moved %.3f m while the gripper approached: the drawer moved and the jaws will close on nothing")} % m, {mx} - m
 """
     return _fn(c, body)
 

@@ -16,10 +16,10 @@ DRAWER_OPEN = 0.15
 """Metres a drawer must come out to count as open: more than half of a 22 cm deep tray, enough to reach in."""
 
 DRAWER_THRESHOLDS: dict[str, dict[str, float]] = {
-    # grasp, during (proactive): the handle stays where it is (within 2 cm) until it is between the fingers
-    # (within 3 cm of the grasp point); a drawer pushed or pulled by 2 cm moves the 1.2 cm bar out of the
-    # closing jaws, which then close on nothing.
-    "drawer_still": {"max_disp": 0.02, "max_dist": 0.03},
+    # grasp, during (proactive): the handle stays where it is (within 2 cm) while the gripper approaches and
+    # closes; a drawer pushed or pulled by 2 cm moves the 1.2 cm bar out of the closing jaws, which then close
+    # on nothing. (The grasp does not lift the handle, so a held handle stays put as well.)
+    "drawer_still": {"max_disp": 0.02},
     # grasp, upon: the handle's centre within 3 cm of the grasp point: jaws closed on a 1.2 cm bar hold it
     # within 1 cm, plus up to 2 cm for a handle point painted from the bar's visible pixels beside the fingers.
     "drawer_handle_grip": {"max_dist": 0.03},
