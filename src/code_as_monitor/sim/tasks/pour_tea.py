@@ -39,7 +39,7 @@ import numpy as np
 
 from code_as_monitor.core.constraints import Action
 from code_as_monitor.core.errors import ConfigError
-from code_as_monitor.sim.disturbances import Disturbance
+from code_as_monitor.sim.disturbances import Disturbance, PolicyWrapper
 from code_as_monitor.sim.motion import min_jerk
 from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 from code_as_monitor.sim.triggered import Triggered
@@ -57,6 +57,8 @@ CUP_HALF_IN = 0.041  # half the cup's inner opening
 CUP_TOP = 0.07  # the cup's height (top of its rim)
 CUP_FLOOR = 0.005
 
+SOLVER_ITERATIONS = 100  # physics solver iterations in this task's world (see PourTea.load_scene)
+
 # --- tea ----------------------------------------------------------------------------------------------------
 N_TEA = 30  # particles; 30 keep the simulator near real time (see the tests' sim-speed note)
 TEA_RADIUS = 0.0055  # metres
@@ -64,6 +66,9 @@ TEA_MASS = 0.0015  # kg each (45 g of tea in all; a heavier load makes the soft 
 MIN_IN_CUP = 0.5  # success: at least this fraction of the tea in the cup ...
 MAX_SPILLED = 0.2  # ... and at most this fraction spilled
 
+TILT_FORWARD = (np.radians(55.0), np.radians(70.0))  # (a) the turn in the grasp, radians
+TILT_SIDEWAYS = (np.radians(40.0), np.radians(55.0))  # (b)
+TURN_RATE = np.radians(120.0)  # rad/s: (a) and (b) turn the pot over half a second, not at once
 UNPOUR_TILT_DEG = 40.0  # (c) fires once the pot is tilted this far: the 35-degree spout slopes down, tea begins to run
 UNPOUR_S = 0.5  # (c) the wrist returns to level over this many seconds
 DISTURBANCES = {"none": "none", "a": "tilt_forward", "b": "tilt_sideways", "c": "unpour",
@@ -137,6 +142,12 @@ class PourTea(Task):
         from code_as_monitor.sim.world import ASSETS
 
         c = world.client
+        # The held pot hangs from a chain of bodies (arm -> 0.12 kg tool -> pot with its tea, 10 cm from the grasp
+        # point) whose light middle link the solver's default 20 iterations do not converge on: the pot swung and
+        # sagged up to 6 degrees relative to the arm's flange while moving (measured: the tool's pose against the
+        # flange link's; the constraint's maxForce and ERP change nothing). 100 iterations bring that under 1.3
+        # degrees, at twice the simulation cost, for this task's world only.
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=c)
         pot = pb.loadURDF(str(ASSETS / "teapot.urdf"), [0.45, 0.14, 0.0], physicsClientId=c)
         cup = pb.loadURDF(str(ASSETS / "teacup.urdf"), [0.47, -0.16, 0.0], physicsClientId=c)
         for b in (pot, cup):
@@ -217,9 +228,9 @@ class PourTea(Task):
     def disturbances(self, seed: int = 0) -> list[Any]:
         kind = DISTURBANCES[self.config.disturbance]
         if kind == "tilt_forward":
-            return [Triggered(kind, _Carrying(), _tilt_in_grasp(0, (0.96, 1.22), spout_down=True), [seed, 31])]
+            return [TurnTrigger(kind, _Carrying(), 0, TILT_FORWARD, True, [seed, 31])]
         if kind == "tilt_sideways":
-            return [Triggered(kind, _Carrying(), _tilt_in_grasp(1, (0.70, 0.96)), [seed, 32])]
+            return [TurnTrigger(kind, _Carrying(), 1, TILT_SIDEWAYS, False, [seed, 32])]
         if kind == "unpour":
             return [UndoPour([seed, 33])]
         return []
@@ -246,32 +257,6 @@ class _Carrying:
         return d < self.d0 - 0.03
 
 
-def rotate_in_grasp(world: Any, axis: int, angle: float) -> None:
-    """Rotate the held object by ``angle`` radians about the tool's ``axis`` (0 x, 1 y, 2 z) through the grasp
-    point, keeping it attached (a perturbed end-effector joint); logs ``grasp_perturbed``."""
-    import pybullet as pb
-
-    ee = world.robot.ee
-    att = ee.attachment()
-    if att is None:
-        return
-    body, rel_pos, rel_orn, link = att
-    axis_v = [0.0, 0.0, 0.0]
-    axis_v[axis] = 1.0
-    q = pb.getQuaternionFromAxisAngle(axis_v, float(angle))
-    tip = np.array([0.0, 0.0, float(ee.tip_length)])  # the grasp point in the tool frame
-    turned, new_orn = pb.multiplyTransforms([0, 0, 0], q, (np.asarray(rel_pos) - tip).tolist(), rel_orn)
-    new_pos = (np.asarray(turned) + tip).tolist()
-    ee.detach()
-    c = world.client
-    tpos, torn = pb.getBasePositionAndOrientation(ee.body, physicsClientId=c)
-    wpos, worn = pb.multiplyTransforms(tpos, torn, new_pos, new_orn)
-    pb.resetBasePositionAndOrientation(body, wpos, worn, physicsClientId=c)
-    pb.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=c)
-    ee.attach(body, new_pos, new_orn, link)
-    world.events.log(world.t, "grasp_perturbed", world.name_of(body), angle=float(angle), axis=axis)
-
-
 def _tool_rotation(world: Any) -> np.ndarray:
     import pybullet as pb
 
@@ -287,9 +272,98 @@ def _rot(axis: int, a: float) -> np.ndarray:
     return R
 
 
-def _tilt_in_grasp(axis: int, angle: tuple[float, float], spout_down: bool = False) -> Any:
-    """Effect: turn the held pot about the tool's ``axis`` by an angle uniform in ``angle`` radians; the sign is
-    the one that tips the spout down when ``spout_down``, else random."""
+class TurnInGrasp:
+    """Tick hook: the held pot turns in the grasp about the tool's ``axis`` (0 x, 1 y, 2 z) through the grasp
+    point, at ``rate`` rad/s until it has turned ``angle`` radians (signed), as a perturbed end-effector joint
+    would. The grasp constraint's frame is turned a little each tick, so the solver moves the pot and the tea in
+    it moves with it (a pose reset would throw the tea out). The turn stops early when the policy is halted
+    (the controller then holds the measured pose, which arrests the perturbed joint); at the end the grasp is
+    re-made at the pose reached (the gripper's bookkeeping for save/restore)."""
+
+    def __init__(self, world: Any, axis: int, angle: float, rate: float, halted: Any) -> None:
+        import pybullet as pb
+
+        ee = world.robot.ee
+        att = ee.attachment()
+        if att is None:
+            raise ValueError("TurnInGrasp: nothing is held")
+        self.body, rel_pos, rel_orn, self.link = att
+        self.rel = (tuple(rel_pos), tuple(rel_orn))
+        self.cid = ee._constraint
+        self.axis, self.angle = int(axis), float(angle)
+        self.n = max(1, round(abs(self.angle) / rate / world.dt))
+        self.k = 0
+        self.halted = halted  # () -> bool: the policy has been halted since the turn began
+        self.tip = [0.0, 0.0, float(ee.tip_length)]  # the grasp point in the tool frame
+        self._pb = pb
+
+    def _child_frame(self, a: float) -> tuple:
+        """The constraint's child frame that holds the pot turned by ``a`` radians from its grasp pose."""
+        pb = self._pb
+        axis_v = [0.0, 0.0, 0.0]
+        axis_v[self.axis] = 1.0
+        q = pb.getQuaternionFromAxisAngle(axis_v, a)
+        rel_pos = (np.asarray(self.rel[0]) - self.tip).tolist()
+        turned_pos, turned_orn = pb.multiplyTransforms([0, 0, 0], q, rel_pos, self.rel[1])
+        turned_pos = (np.asarray(turned_pos) + self.tip).tolist()
+        ipos, iorn = pb.invertTransform(turned_pos, turned_orn)
+        return pb.multiplyTransforms(ipos, iorn, *self.rel)  # rel' ^ -1 * rel
+
+    def __call__(self, world: Any) -> None:
+        ee, pb, c = world.robot.ee, self._pb, world.client
+        if ee.holding != self.body or ee._constraint != self.cid:  # let go, or re-grasped: nothing to turn
+            world.tick_hooks.remove(self)
+            return
+        if not self.halted() and self.k < self.n:
+            self.k += 1
+            pos, orn = self._child_frame(self.angle * self.k / self.n)
+            pb.changeConstraint(self.cid, jointChildPivot=pos, jointChildFrameOrientation=orn,
+                                maxForce=ee.hold_force, physicsClientId=c)
+            return
+        world.tick_hooks.remove(self)  # re-grasp at the pose reached, so the constraint's frames are plain again
+        tpos, torn = pb.getBasePositionAndOrientation(ee.body, physicsClientId=c)
+        opos, oorn = pb.getBasePositionAndOrientation(self.body, physicsClientId=c)
+        ipos, iorn = pb.invertTransform(tpos, torn)
+        rpos, rorn = pb.multiplyTransforms(ipos, iorn, opos, oorn)
+        ee.detach()
+        ee.attach(self.body, rpos, rorn, self.link)
+
+
+class TurnTrigger(Triggered):
+    """A :class:`~code_as_monitor.sim.triggered.Triggered` turn in the grasp that knows when the policy is
+    halted (it wraps the policy), which arrests the turn (:class:`TurnInGrasp`)."""
+
+    def __init__(self, name: str, when: Any, axis: int, angle: tuple[float, float], spout_down: bool,
+                 seed: Any = 0) -> None:
+        super().__init__(name, when, _tilt_in_grasp(axis, angle, self._halted_since, spout_down), seed)
+        self.halts = 0
+        self._halts_at_fire = 0
+
+    def _halted_since(self, start: bool = False) -> bool:
+        if start:
+            self._halts_at_fire = self.halts
+        return self.halts > self._halts_at_fire
+
+    def wrap(self, policy: Any) -> Any:
+        return _HaltCounter(policy, self)
+
+
+class _HaltCounter(PolicyWrapper):
+    """Forwards to the policy; counts its halts on ``owner.halts``."""
+
+    def __init__(self, inner: Any, owner: TurnTrigger) -> None:
+        super().__init__(inner)
+        self.owner = owner
+
+    def halt(self) -> None:
+        self.owner.halts += 1
+        self.inner.halt()
+
+
+def _tilt_in_grasp(axis: int, angle: tuple[float, float], halted: Any, spout_down: bool = False) -> Any:
+    """Effect: start turning the held pot about the tool's ``axis`` by an angle uniform in ``angle`` radians
+    (:class:`TurnInGrasp`, at ``TURN_RATE``); the sign is the one that tips the spout down when ``spout_down``,
+    else random. Logs ``grasp_perturbed`` (``angle``: the turn planned, ``axis``)."""
 
     def effect(world: Any, rng: np.random.Generator) -> None:
         a = float(rng.uniform(*angle))
@@ -300,7 +374,9 @@ def _tilt_in_grasp(axis: int, angle: tuple[float, float], spout_down: bool = Fal
             a = a if z[0] < z[1] else -a
         else:
             a *= float(rng.choice([-1.0, 1.0]))
-        rotate_in_grasp(world, axis, a)
+        halted(start=True)
+        world.tick_hooks.append(TurnInGrasp(world, axis, a, TURN_RATE, halted))
+        world.events.log(world.t, "grasp_perturbed", "teapot", angle=a, axis=axis)
 
     return effect
 
