@@ -2,7 +2,8 @@
 handle mid-pull, and Code-as-Monitor (kb backend, sim segmenter, sim tracker, 320x240) detects the slip with the
 pull's ``handled`` check, grasps the handle again where the drawer stopped and pulls again to success.
 
-Measured (2 cores, seed 0): about 11 s wall for the slip run, 8 s undisturbed.
+Measured (2 cores, seed 0): about 11 s wall for the slip run alone (35 s with benchmarks on both cores), 8 s
+undisturbed.
 """
 
 from __future__ import annotations
