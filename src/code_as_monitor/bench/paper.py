@@ -45,7 +45,7 @@ PAPER: dict[str, dict[str, Cell]] = {
                "cam": (70.0, 0.0, 93.08, 0.0)},
     "book-c": {"open-loop": (20.0, 0.0, None, None), "doremi": (40.0, 0.0, 127.17, 0.0),
                "cam": (60.0, 0.0, 93.08, 0.0)},
-    # Table 2, Pour Tea (no simulator task yet); DoReMi reports no time for it.
+    # Table 2, Pour Tea; DoReMi reports no time for it. (The paper has no open-drawer row.)
     "tea-none": {"open-loop": (20.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
                  "cam": (50.0, 0.0, 174.55, 0.0)},
     "tea-a": {"open-loop": (20.0, 0.0, None, None), "doremi": (0.0, 0.0, None, None),
