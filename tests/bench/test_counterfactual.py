@@ -75,3 +75,38 @@ def test_rollout_does_not_confirm_a_safe_tower():
         _run(env, env.plan[1])
         cf = rollout(env, horizon_s=15.0)
     assert not cf["confirmed"] and cf["success_at_end"] is True
+
+
+def _until(env, kind: str) -> None:
+    """Play the plan until the ground-truth log has an event of ``kind``."""
+    plan = list(env.plan)
+    while not env.world.events.of_kind(kind):
+        if env.policy.done:
+            env.policy.start(plan.pop(0))
+        env.policy.step()
+
+
+def test_gripper_task_rollout_confirms_by_the_task_failing_when_the_plan_ends():
+    """slot-pen (a): the pen is moved under the descending gripper; the open-loop plan closes on nothing and
+    ends without a pen in the holder, so the proactive 'steady' prediction is confirmed at the plan's end."""
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("slot-pen", seed=0, disturbance="a") as env:
+        assert env.task.proactive_confirmation == "task_failure"
+        _until(env, "object_moved")
+        t = env.world.t
+        cf = rollout(env, horizon_s=15.0)
+        assert env.world.t == t
+    assert cf["plan_ended"] and cf["confirmed"] and cf["success_at_end"] is False
+    assert cf["event"]["kind"] == "task_failed" and cf["lead_s"] > 0
+
+
+def test_gripper_task_rollout_does_not_confirm_a_run_that_succeeds_or_does_not_end():
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("slot-pen", seed=0) as env:
+        _run(env, env.plan[0])
+        ok = rollout(env, horizon_s=15.0)
+        short = rollout(env, horizon_s=1.0)
+    assert ok["plan_ended"] and not ok["confirmed"] and ok["success_at_end"] is True
+    assert not short["plan_ended"] and not short["confirmed"]

@@ -4,9 +4,19 @@ At a proactive alarm (an alarm raised by a constraint marked ``proactive``, e.g.
 off-centre, so the next block will topple the tower"), :func:`rollout` snapshots the simulator
 (:meth:`World.save_state` plus the Python-side state of the task, the disturbances and the scripted
 policy), lets the open-loop policy go on WITHOUT the monitor for ``horizon_s`` seconds — first the
-action in progress, then the rest of the task's fixed plan after it — and records whether a
-predicted failure event (:data:`PREDICTED_KINDS`) appears in the ground-truth log. Then it restores
-the snapshot, so the monitored episode continues exactly from the alarm.
+action in progress, then the rest of the task's fixed plan after it — and records whether the
+predicted failure happened. Then it restores the snapshot, so the monitored episode continues exactly
+from the alarm.
+
+What confirms a prediction depends on the task (``Task.proactive_confirmation``):
+
+- ``"events"`` (the CLIPort tasks): a predicted failure event (:data:`PREDICTED_KINDS`, a toppling
+  tower) appears in the ground-truth log; lead = its time - the alarm's time.
+- ``"task_failure"`` (the gripper tasks, whose proactive checks predict that the task cannot succeed:
+  the fingers will close on nothing, the pen will miss the opening): the open-loop plan runs to its
+  end within the horizon, the world settles for :data:`SETTLE_S`, and the task's success check fails;
+  lead = the time the plan ended - the alarm's time. A rollout whose plan does not end within the
+  horizon confirms nothing.
 
 Nothing of the rollout leaks into the episode: physics, clock, event log (truncated, and its file
 mirror paused), disturbance random generators and the task's consequence detectors are restored.
@@ -26,6 +36,8 @@ PREDICTED_KINDS = ("tower_collapsed",)
 predict a toppling tower; drops are random and never predictable)."""
 
 DEFAULT_HORIZON_S = 15.0
+SETTLE_S = 1.0
+"""Seconds the world runs after the plan ends before a ``task_failure`` rollout is judged."""
 
 _PLAIN = (int, float, bool, str, type(None), dict, list, tuple, set, np.ndarray, np.random.Generator)
 
@@ -88,18 +100,24 @@ def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ..
     action = getattr(base, "action", None)
     fh, world.events._fh = world.events._fh, None  # keep the rollout out of the ground-truth file
     found: dict[str, Any] | None = None
+    by_task = getattr(env.task, "proactive_confirmation", "events") == "task_failure"
+    plan_end: float | None = None
     try:
         end = t_alarm + horizon_s
         plan = _remaining_plan(env)
         while world.t < end - 1e-9 and found is None:
             if policy.done:
                 if not plan:
+                    plan_end = world.t if plan_end is None else plan_end
+                    if by_task and world.t >= plan_end + SETTLE_S - 1e-9:
+                        break
                     policy.step()
                 else:
                     policy.start(plan.pop(0))
             else:
                 policy.step()
-            found = next((e for e in world.events.events[n_events:] if e["kind"] in kinds), None)
+            if not by_task:
+                found = next((e for e in world.events.events[n_events:] if e["kind"] in kinds), None)
         success = bool(env.evaluate().success)
     finally:
         if not gen_was_live and getattr(base, "_gen", None) is not None:
@@ -110,6 +128,16 @@ def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ..
         if hasattr(base, "action"):
             base.action = action
         world.events._fh = fh
+    if by_task:
+        failed_at = plan_end if plan_end is not None and plan_end + SETTLE_S <= end + 1e-9 and not success else None
+        return {
+            "confirmed": failed_at is not None,
+            "event": None if failed_at is None else {"t": failed_at, "kind": "task_failed", "obj": ""},
+            "lead_s": None if failed_at is None else round(failed_at - t_alarm, 3),
+            "horizon_s": horizon_s,
+            "success_at_end": success,
+            "plan_ended": plan_end is not None,
+        }
     return {
         "confirmed": found is not None,
         "event": {"t": found["t"], "kind": found["kind"], "obj": found["obj"]} if found else None,
@@ -119,4 +147,4 @@ def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ..
     }
 
 
-__all__ = ["DEFAULT_HORIZON_S", "PREDICTED_KINDS", "rollout"]
+__all__ = ["DEFAULT_HORIZON_S", "PREDICTED_KINDS", "SETTLE_S", "rollout"]

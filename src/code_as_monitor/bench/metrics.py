@@ -30,9 +30,10 @@ Detection against the simulator's ground-truth event log (:func:`detection`):
   episode is also given for every cell (``unmatched_per_ep``).
 - **Proactive precision**: among proactive alarms that got a counterfactual rollout (see
   ``bench.counterfactual``: save the world at the alarm, continue the open-loop plan without the
-  monitor for ``horizon_s``, restore), the fraction whose predicted failure (``tower_collapsed``)
-  happened in the rollout. **Lead time** = predicted event time in the rollout - alarm time
-  (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to
+  monitor for ``horizon_s``, restore), the fraction whose predicted failure happened in the rollout:
+  a ``tower_collapsed`` event for the CLIPort tasks; for the gripper tasks, the plan ending with the
+  task failed. **Lead time** = predicted event time (or the failed plan's end) in the rollout - alarm
+  time (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to
   predict.
 
 Open-loop raises no alarm; its detection cells are empty, not zero.
