@@ -40,6 +40,22 @@ DEFAULT_SKILLS: dict[str, str] = {
         'args {"obj": name, "distance": metres}: pull the grasped handle straight out along the drawer\'s axis by '
         "the distance, open the gripper, retreat"
     ),
+    "transport": (
+        'args {"obj": name, "target": name}: carry the held object (a teapot) at its current tilt until its spout '
+        "is above the target (a cup)"
+    ),
+    "pour": (
+        'args {"obj": name, "target": name}: tilt the held teapot forward past the pour angle, its spout\'s end '
+        "moving down to just above the target's opening"
+    ),
+    "drain": (
+        'args {"obj": name, "target": name}: hold the tilted teapot still for a few seconds while the tea runs out'
+    ),
+    "level": 'args {"obj": name}: turn the wrist until the held object stands level (its top horizontal)',
+    "set_down": (
+        'args {"obj": name}: carry the held object to a free spot of the table away from the cup, lower it until '
+        "it almost touches, open the gripper, lift"
+    ),
 }
 """Skill name -> one-line description of its arguments and behaviour."""
 
