@@ -19,15 +19,24 @@ Success: at least ``MIN_IN_CUP`` (half) of the tea particles are in the cup and 
 
 Disturbances (config ``disturbance``):
 ``none``; ``a`` / ``tilt_forward``: in transport (the pot held level, 3 cm closer to the cup than when it was
-lifted) an end-effector joint is perturbed: the pot turns 55-70 degrees in the grasp about the closing axis, spout
-down (a lidded pot tipped backwards spills nothing, and the pour, which sets its tilt from the pot's pose when it
-starts, would still succeed, so only the forward tilt is a failure here); ``b`` / ``tilt_sideways``: at the same
-moment the pot turns 40-55 degrees (random side) about the tool's horizontal axis along the spout, a sideways
-tilt that the wrist's pitch cannot undo; ``c`` / ``unpour``: while pouring, as soon as the pot is tilted 40 degrees
-(the tea has begun to run), the pour motion is aborted and the wrist returns to level (within 3 degrees) and holds.
+lifted) an end-effector joint is perturbed: the pot turns in the grasp about the closing axis, spout down, by
+55-70 degrees at ``TURN_RATE`` (120 degrees/s; a pot tipped backwards spills nothing and the pour, which sets its
+tilt from the pot's pose when it starts, would still succeed, so only the forward tilt is used). Past 35 degrees
+the trough slopes down and the tea runs out over the table (open loop: 8 of 10 seeds fail, measured; where the turn
+starts late in the transport, the pour starts from the tipped pose and makes up for it). ``b`` / ``tilt_sideways``:
+at the same moment the pot turns 40-55 degrees (random side) about the tool's horizontal axis along the spout, a
+sideways tilt that the wrist's pitch cannot undo. It is *not a task failure* in this simulator: the lid keeps the tea
+in and the funnel spout still pours it into the cup (open loop succeeds; measured up to 80 degrees); it is a
+violation of "keep it level" all the same. Both turns go through the grasp constraint, so the tea moves with the
+pot, and stop when the policy is halted (the controller holding the measured pose arrests the joint).
+``c`` / ``unpour``: while pouring, as soon as the pot is tilted 40 degrees (the tea has begun to run), the pour
+motion is aborted and the wrist returns to level (within 3 degrees) and holds; the next action (open loop: the
+drain, at about 40 degrees) starts from wherever it is, and little or no tea runs out.
 Events: ``grasp_perturbed`` (obj, ``angle``, ``axis``) for (a) and (b), ``pour_undone`` (``pitch``) for (c).
 Expected failure signals: (a), (b) the lid (a surface) is no longer level in transport: its normal is more than
-15 degrees from vertical; (c) the lid's normal is back near vertical while the pot should be pouring.
+15 degrees from vertical; (c) the pour ends short of the pour angle.
+
+Physics: the world runs ``SOLVER_ITERATIONS`` solver iterations (see :meth:`PourTea.load_scene`).
 """
 
 from __future__ import annotations
