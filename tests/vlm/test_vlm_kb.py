@@ -286,4 +286,4 @@ def test_kb_is_deterministic_and_honest_about_itself():
 def test_kb_unknown_instruction_is_a_clear_error():
     gen, _ = gen_coder()
     with pytest.raises(VLMError, match="no rule for instruction"):
-        gen.next_subgoal("pour the tea into the cup", IMG, ["teapot", "cup"])
+        gen.next_subgoal("fold the towel in half", IMG, ["towel", "table"])
