@@ -16,14 +16,21 @@ colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane 
   image position (held, gripped, released)? is its blob's long axis along the image direction of
   vertical (upright, standing)? is its lower end above the opening when low, or down inside the rim's
   image box (over, aimed, inside, shelved)?
+- drawer cabinet (front view; rules in :mod:`~code_as_monitor.baselines.vqa_standin_drawer`): is the
+  handle bar's blob at the gripper's image position (gripped, handled, released)? are the jaws closed
+  on it (jaw opening from proprioception)? how far is the drawer out: the gap between the cabinet's and
+  the drawer front's top edges, in handle-bar lengths (pulled)? The drawer's motion is not in one image
+  (``drawerstill`` is yes while the handle is visible).
 
 Inputs it may use: ``view.rgb`` and ``view.camera`` (intrinsics/extrinsics of the chosen view) and
 the robot's proprioceptive tip position (``obs.robot.ee_points["tip"]``), projected into the image
-as a proxy for "where the gripper is in the picture". It never reads ``depth``, ``seg`` or
+as a proxy for "where the gripper is in the picture", and the gripper's jaw opening (the distance of
+``finger_left`` and ``finger_right``, proprioception). It never reads ``depth``, ``seg`` or
 ``obs.object_poses``. So it makes a single image's mistakes: a block lying on the table behind the
 tower looks "on top" in the front view, an offset along the viewing ray is invisible, the arm
 occludes blocks, touching blocks merge into one blob; a tilt or an offset towards the camera is
-invisible, and an item lying behind a raised gripper looks held.
+invisible, and an item lying behind a raised gripper looks held; a grasp point behind the drawer's
+handle on the line of sight looks at it, and a drawer that moved looks still. No rules for the teapot.
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from code_as_monitor.baselines.vqa_standin_drawer import DrawerRules
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
@@ -51,9 +59,11 @@ HSV_RANGES: dict[str, list[tuple[int, ...]]] = {
     "cream": [(20, 32, 50, 100, 140)],  # the book's spine (pale yellow: S ~95, under "yellow")
     "teal": [(84, 96, 150, 60)],  # the bookshelf's slot rim
     "wood": [(12, 17, 120, 50, 190)],  # the bookshelf's body (S ~155, under the holder rim's ~230)
+    "brown": [(12, 17, 110, 40, 190)],  # the drawer cabinet's body (H ~14, S ~145, V 80..140)
+    "brass": [(19, 26, 150, 60)],  # the drawer's handle bar (H ~22, S ~210; its shaded face V ~130)
 }
 # Also used by the gripper tasks: "blue" (pen body), "yellow" (pen tip), "green" (holder body), "red"
-# (book cover).
+# (book cover); by the drawer: "blue" (the drawer's front plate and tray).
 NEAR_TIP_FRAC = (0.5, 0.6)
 """A blob counts as "on the suction cup" when its centre is within (0.5 blob widths sideways, 0 to 0.6
 blob widths below) the tip's image position."""
@@ -130,7 +140,8 @@ class VQAStandin:
 
     def view_for(self, constraint: Constraint) -> str:
         """The one view a question is asked on: top-down for counting and rope, front for stacking and for
-        the gripper tasks (the top view sees the held pen or book only past the arm and hand above it)."""
+        the gripper tasks (the top view sees the held pen or book only past the arm and hand above it, and
+        not the drawer's handle under the hand: the front camera sees the bar over the cabinet)."""
         objs = {p.obj for p in constraint.parts}
         return "top" if objs & {"zone", "rope", "square"} else "front"
 
@@ -146,9 +157,15 @@ class VQAStandin:
         if tip is not None:
             uv, z = view.camera.project(np.asarray(tip, dtype=float)[None])
             tip_uv = uv[0] if z[0] > 0 else None
-            # pixels per metre at the gripper's depth (its own position: proprioception, not scene depth)
-            grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z)
-        got = GripperRules().answer(key, constraint, view, grip)
+            # pixels per metre at the gripper's depth (its own position: proprioception, not scene depth);
+            # the jaw opening: the fingers' distance (proprioception), when the gripper reports its fingers
+            fl = obs.robot.ee_points.get("finger_left") if obs.robot is not None else None
+            fr = obs.robot.ee_points.get("finger_right") if obs.robot is not None else None
+            jaw = None if fl is None or fr is None else float(np.linalg.norm(np.asarray(fl) - np.asarray(fr)))
+            grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z, jaw)
+        got = DrawerRules().answer(key, constraint, view, grip)
+        if got is None:
+            got = GripperRules().answer(key, constraint, view, grip)
         if got is not None:
             return got
         if key in ("reached", "capped"):

@@ -114,11 +114,13 @@ class Box:
 @dataclass(frozen=True)
 class Gripper:
     """The grasp point as the picture shows it: image position (u, v) px, pixels per metre at its depth,
-    height above the table (m, proprioception). ``uv`` is None when it is behind the camera or unknown."""
+    height above the table (m, proprioception). ``uv`` is None when it is behind the camera or unknown.
+    ``jaw``: the jaw opening (m, the fingers' distance, proprioception), None without finger points."""
 
     uv: np.ndarray | None
     px_per_m: float
     z: float
+    jaw: float | None = None
 
 
 def item_kind(obj: str) -> str | None:
