@@ -5,7 +5,8 @@ segmenter, sim tracker, 320x240) raises the expected first alarm and recovers.
 into the cup regardless; see ``sim/tasks/pour_tea.py``), but it violates "keep it level", and CaM sets the pot down
 and grasps it again (the wrist cannot undo a sideways tilt).
 
-Measured (2 cores, seed 0): (a) about 12 s wall (+ 4 s open loop), (b) about 22 s, (c) about 11 s.
+Measured (seed 0, 2 cores): (a) about 12 s wall plus 4 s open loop alone, 32 s while a benchmark ran on the other
+core; (b) 45 s and (c) 43 s under the same load.
 """
 
 from __future__ import annotations
