@@ -21,6 +21,11 @@ colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane 
   on it (jaw opening from proprioception)? how far is the drawer out: the gap between the cabinet's and
   the drawer front's top edges, in handle-bar lengths (pulled)? The drawer's motion is not in one image
   (``drawerstill`` is yes while the handle is visible).
+- teapot + teacup (front view; rules in :mod:`~code_as_monitor.baselines.vqa_standin_tea`): is the
+  handle fin's blob at the gripper's image position (grasped, lifted, gripped, freed)? is the lid level
+  (its pixels, laid on a horizontal plane, as round as a level square's: potlevel)? is the lid's long
+  image axis tilted past the pour angle with the spout below the handle (pourtilt, draintilt)? is the
+  spout blob above the cup blob (spoutover)?
 
 Inputs it may use: ``view.rgb`` and ``view.camera`` (intrinsics/extrinsics of the chosen view) and
 the robot's proprioceptive tip position (``obs.robot.ee_points["tip"]``), projected into the image
@@ -30,7 +35,8 @@ as a proxy for "where the gripper is in the picture", and the gripper's jaw open
 tower looks "on top" in the front view, an offset along the viewing ray is invisible, the arm
 occludes blocks, touching blocks merge into one blob; a tilt or an offset towards the camera is
 invisible, and an item lying behind a raised gripper looks held; a grasp point behind the drawer's
-handle on the line of sight looks at it, and a drawer that moved looks still. No rules for the teapot.
+handle on the line of sight looks at it, and a drawer that moved looks still; a spout behind the cup
+on the line of sight looks over it, and a pot pouring towards the camera does not look tipped.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ import numpy as np
 
 from code_as_monitor.baselines.vqa_standin_drawer import DrawerRules
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
+from code_as_monitor.baselines.vqa_standin_tea import TeaRules
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
 
@@ -61,6 +68,7 @@ HSV_RANGES: dict[str, list[tuple[int, ...]]] = {
     "wood": [(12, 17, 120, 50, 190)],  # the bookshelf's body (S ~155, under the holder rim's ~230)
     "brown": [(12, 17, 110, 40, 190)],  # the drawer cabinet's body (H ~14, S ~145, V 80..140)
     "brass": [(19, 26, 150, 60)],  # the drawer's handle bar (H ~22, S ~210; its shaded face V ~130)
+    "pothandle": [(12, 17, 160, 40, 210)],  # the teapot's handle fin (S ~185, V 60..110; the tea's S ~230)
 }
 # Also used by the gripper tasks: "blue" (pen body), "yellow" (pen tip), "green" (holder body), "red"
 # (book cover); by the drawer: "blue" (the drawer's front plate and tray).
@@ -164,6 +172,8 @@ class VQAStandin:
             jaw = None if fl is None or fr is None else float(np.linalg.norm(np.asarray(fl) - np.asarray(fr)))
             grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z, jaw)
         got = DrawerRules().answer(key, constraint, view, grip)
+        if got is None:
+            got = TeaRules().answer(key, constraint, view, grip)
         if got is None:
             got = GripperRules().answer(key, constraint, view, grip)
         if got is not None:

@@ -75,9 +75,8 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
     # The paper's 10 runs per setting. Offline, DoReMi and Inner Monologue ask the single-image VQA
     # stand-in (not a VLM): it has rules for the pen/holder and book/shelf constraints
-    # (baselines/vqa_standin_gripper.py) and the drawer's (baselines/vqa_standin_drawer.py), none yet for
-    # the teapot, whose questions get its default answers (mostly "cannot see it": no), so that row's
-    # baseline columns are not meaningful.
+    # (baselines/vqa_standin_gripper.py), the drawer's (baselines/vqa_standin_drawer.py) and the teapot's
+    # (baselines/vqa_standin_tea.py), each answering from one front image with a single image's mistakes.
     "table2": {"seeds": 1, "episodes": 10, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
 }
 
