@@ -1,8 +1,8 @@
 """Simulator tasks, registered on :class:`TaskConfig` by id. Importing this package registers them."""
 
 from code_as_monitor.sim.tasks import (  # noqa: F401
-    pour_tea,
     open_drawer,
+    pour_tea,
     rope_close_square,
     slot_pen,
     stack_in_order,
