@@ -113,16 +113,9 @@ def pulled(c: Spec) -> str:
 
 def drawerfreed(c: Spec) -> str:
     """Parts: [tip (point), handle (point)]. The gripper has let go of the handle and moved off it."""
-    tip, h = c["element_ids"][:2]
-    th, hn = c["thresholds"], _name(c, 1)
-    rd = _f(th["release_dist"])
-    body = f"""
-    d = distance(E[{tip}], centroid(E[{h}]))
-    if d >= {rd}:
-        return True, {_q("the handle of " + hn + " is released (the grasp point is %.3f m away)")} % d, d - {rd}
-    return False, {_q("the handle of " + hn + " is still held: the grasp point is %.3f m from it")} % d, d - {rd}
-"""
-    return _fn(c, body)
+    from code_as_monitor.vlm.kb.manip_templates import freed
+
+    return freed(c, "the handle of " + _name(c, 1))
 
 
 DRAWER_TEMPLATES: dict[str, Callable[[Spec], str]] = {

@@ -120,10 +120,11 @@ def inside(c: Spec) -> str:
     return _fn(c, body)
 
 
-def freed(c: Spec) -> str:
-    """Parts: [gripper tip (point), object part (any)]. The gripper has let go and moved away."""
+def freed(c: Spec, label: str = "") -> str:
+    """Parts: [gripper tip (point), object part (any)]. The gripper has let go and moved away. ``label``
+    names what was held in the reasons (default: the object's name)."""
     tip, x = c["element_ids"][:2]
-    th, xn = c["thresholds"], _name(c, 1)
+    th, xn = c["thresholds"], label or _name(c, 1)
     rd = _f(th["release_dist"])
     body = f"""
     d = distance(E[{tip}], centroid(E[{x}]))
