@@ -9,7 +9,7 @@ from hostile_programs import GOOD
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.coverage import CoverageError, check_path_coverage
 from code_as_monitor.monitor.instrument import instrument
-from code_as_monitor.monitor.perturb import make_probes
+from code_as_monitor.monitor.perturb import TURNS_PER_ELEMENT, make_probes
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
 
@@ -82,7 +82,7 @@ def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
     report = _run(GOOD, constraints, scene, sandbox)
     assert report.ok and report.fraction == 1.0
     assert report.covered == {b.id for b in report.branches}
-    assert report.n_inputs == 97
+    assert report.n_inputs == 97 + TURNS_PER_ELEMENT  # the state, 96 perturbations, turns of the surface
     assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
 
 
@@ -134,7 +134,7 @@ def test_overrun_on_a_branch_stops_early(constraints, scene):
 
 def test_factory_and_rejection_before_running(constraints, scene):
     report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=10)
-    assert report.n_inputs == 11
+    assert report.n_inputs == 11 + TURNS_PER_ELEMENT
     with pytest.raises(ProgramError, match="'while'"):
         _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
 
@@ -143,7 +143,7 @@ def test_probes_are_consistent_and_deterministic(scene):
     H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
     Ht = np.linspace(0.0, 0.4, 5)
     probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
-    assert len(probes) == 41 and probes[0].description.startswith("the current state")
+    assert len(probes) == 41 + TURNS_PER_ELEMENT and probes[0].description.startswith("the current state")
     assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
     for p in probes:
         T = len(p.history_t)
@@ -154,6 +154,11 @@ def test_probes_are_consistent_and_deterministic(scene):
     lengths = {len(p.history_t) for p in probes}
     assert 1 in lengths and 5 in lengths
     assert any("piled" in p.description for p in probes) and any("rotated" in p.description for p in probes)
+    turns = [p for p in probes if "turned" in p.description]
+    assert len(turns) == TURNS_PER_ELEMENT  # the surface (element 1) turned into its current pose; the point never
+    for p in turns:
+        first, last = p.history[1][0], p.history[1][-1]
+        assert not np.allclose(first, last) and np.allclose(first.mean(axis=0), last.mean(axis=0))
 
 
 def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints):

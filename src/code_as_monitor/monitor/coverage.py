@@ -37,7 +37,8 @@ class CoverageReport:
     Attributes:
         branches: the branch table of the instrumented program.
         covered: ids of the branches some input reached.
-        n_inputs: how many inputs were evaluated (the current state plus perturbations).
+        n_inputs: how many inputs were evaluated (the current state, the perturbations and the turning
+            histories of line and surface elements).
         faults: "check: reason (on input)" for every distinct exception / malformed result / overrun.
         unreached: the branches no input reached (in functions that were entered at least once).
         failing_at_start: "check: reason" of ``during`` checks already violated on the starting state.

@@ -3,7 +3,8 @@
 Each perturbation is a plausible-but-different world: elements translated by a few centimetres or up
 to ~0.3 m, raised or lowered, lines and surfaces rotated, elements moved apart or together, points
 piled on one another (degenerate lines and surfaces), elements swapped, and histories that are
-static, moving, short (T = 1, 2) or longer. Every array is world frame, metres; times are seconds.
+static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
+longer. Every array is world frame, metres; times are seconds.
 """
 
 from __future__ import annotations
@@ -85,6 +86,11 @@ def _with_history(state: State, T: int, t: float, start_offset: np.ndarray | Non
     return {i: p.copy() for i, p in E.items()}, H, _times(T, t, dt)
 
 
+TURNS_PER_ELEMENT = 3
+"""Turning-history probes per line or surface element, added after the ``n`` perturbations: a check that
+compares an element's direction with its oldest one (a book turned under the gripper) needs them."""
+
+
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
                 history_t: np.ndarray | None, t: float, n: int, seed: int = 0) -> list[Probe]:
     """The unperturbed state first, then ``n`` perturbations cycling through the families above."""
@@ -152,6 +158,18 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         return Probe(f"history of T={T} frames moving by {_fmt(-o)} m to the current points",
                      *_with_history(base, T, t, o))
 
+    turn_rng = np.random.default_rng([seed, 1])  # its own stream: the other probes stay as they were
+
+    def turning_history(i: int) -> Probe:
+        axis = turn_rng.normal(size=3)
+        angle = turn_rng.uniform(0.2, np.pi / 2) * turn_rng.choice([-1.0, 1.0])
+        T = int(turn_rng.choice([2, 3, max(T0, 5)]))
+        E, H, Ht = _with_history(base, T, t, None)
+        c = E[i].mean(axis=0)
+        H[i] = np.stack([(E[i] - c) @ _rotation(axis, angle * w).T + c for w in np.linspace(1.0, 0.0, T)])
+        return Probe(f"history of T={T} frames in which element {i} turned {np.degrees(angle):.0f} deg (axis "
+                     f"{_fmt(axis)}) into its current pose", E, H, Ht)
+
     families: list[Callable[[], Probe]] = [
         lambda: translate_all(0.03), lambda: translate_one(False), lambda: translate_one(True),
         lambda: translate_all(0.3), rotate, history_variant, lambda: scale_about_centre(rng.uniform(1.5, 4.0)),
@@ -163,4 +181,6 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     for k in range(n):
         make = fixed[k] if k < len(fixed) else families[(k - len(fixed)) % len(families)]
         probes.append(make())
+    for i in (i for i in ids if len(base[0][i]) >= 2):  # lines and surfaces: a few turning histories each
+        probes += [turning_history(i) for _ in range(TURNS_PER_ELEMENT)]
     return probes

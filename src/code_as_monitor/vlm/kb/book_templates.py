@@ -17,20 +17,21 @@ from code_as_monitor.vlm.kb.templates import Spec, _f, _fn, _name, _q, _tilt
 
 def aligned(c: Spec) -> str:
     """Parts: [spine (line)]. The spine lies as it did: within ``max_turn`` of its oldest direction in H and
-    within ``max_slope`` of horizontal (a book lying on the table, or lifted flat by the gripper), unless the
-    whole spine is above ``held_z`` (the book is already up in the gripper)."""
+    its slope within ``max_slope`` of its oldest slope (a book lying flat stays flat; a book left leaning
+    in the shelf is judged against its lean, not against the table), unless the whole spine is above
+    ``held_z`` (the book is already up in the gripper)."""
     (x,) = c["element_ids"][:1]
     th, xn = c["thresholds"], _name(c, 0)
     mt, ms, hz = _f(th["max_turn"]), _f(th["max_slope"]), _f(th["held_z"])
     body = f"""
     a = angle_between(direction(H[{x}][0]), direction(E[{x}]))
     a = np.min([a, math.pi - a])
-    s = np.abs(math.pi / 2 - angle_to_vertical(direction(E[{x}])))
+    s = np.abs(angle_to_vertical(direction(E[{x}])) - angle_to_vertical(direction(H[{x}][0])))
     low = np.min(E[{x}][:, 2])
     margin = np.max([np.min([{mt} - a, {ms} - s]), low - {hz}])
     if (a <= {mt} and s <= {ms}) or low > {hz}:
-        return True, {_q(xn + " spine lies as it did (turned %.1f degrees, %.1f degrees from horizontal)")} % (math.degrees(a), math.degrees(s)), margin
-    return False, {_q(xn + " spine turned %.1f degrees (%.1f degrees from horizontal) while the gripper approached: the jaws will close across a skewed " + xn)} % (math.degrees(a), math.degrees(s)), margin
+        return True, {_q(xn + " spine lies as it did (turned %.1f degrees, its slope changed %.1f degrees)")} % (math.degrees(a), math.degrees(s)), margin
+    return False, {_q(xn + " spine turned %.1f degrees (its slope changed %.1f degrees) while the gripper approached: the jaws will close across a skewed " + xn)} % (math.degrees(a), math.degrees(s)), margin
 """
     return _fn(c, body)
 

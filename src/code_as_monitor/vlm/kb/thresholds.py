@@ -92,7 +92,8 @@ THRESHOLDS.update({
 THRESHOLDS.update({
     # grasp, during (proactive): the spine keeps its direction (within 15 degrees) until it is gripped;
     # a book turned more than that under the jaws is held skewed and cannot be turned upright. It lies
-    # flat until then: the spine within 20 degrees of horizontal.
+    # as it did until then: its slope within 20 degrees of the slope it had when the grasp began (flat on
+    # the table, or leaning where a failed stow left it).
     # A spine wholly above 15 cm is up in the gripper at carry height (the check is about the book on the
     # table; a spine turned 45 degrees or more at carry height dips below 15 cm, so the check stays testable).
     "aligned": {"max_turn": 0.26, "max_slope": 0.35, "held_z": 0.15},
