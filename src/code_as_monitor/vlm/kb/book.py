@@ -49,7 +49,7 @@ def grasp(obj: str) -> list[dict[str, Any]]:
     the restart state (path coverage rejects it); ``aligned`` is the book's version."""
     al, li = thresholds("aligned"), thresholds("lifted_book")
     return [
-        _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (flat, its direction within 15 degrees) "
+        _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (its slope and direction within 20 and 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
         *in_gripper(obj, _cover(obj), li),
