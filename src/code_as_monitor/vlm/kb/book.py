@@ -42,14 +42,14 @@ def _slot(obj: str) -> dict[str, str]:
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:
-    """``grasp``: during (proactive) the book lies as it did (flat, same direction); upon, gripped and lifted.
+    """``grasp``: during (proactive) the book lies as it did (same slope and direction); upon, gripped and lifted.
 
     No ``steady`` (displacement) check: a book is turned about its centre under the gripper, which stays
     within the steady check's grasp-point radius, so after a halt there that check could never fail on
     the restart state (path coverage rejects it); ``aligned`` is the book's version."""
     al, li = thresholds("aligned"), thresholds("lifted_book")
     return [
-        _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (its slope and direction within 20 and 15 degrees) "
+        _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (slope within 20, direction within 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
         *in_gripper(obj, _cover(obj), li),
