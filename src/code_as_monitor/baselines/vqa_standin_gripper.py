@@ -26,7 +26,8 @@ steady, aligned      yes while the item is visible (one image shows no motion); 
                      when the fingers are down at the table (grasp point height) and the item is not
                      between them
 grasped              the item (centre or axis) at the grasp point (``max_dist``)
-lifted               grasped, and the grasp point above ``min_z`` (proprioception)
+lifted, raised       grasped, and the grasp point above ``min_z`` (proprioception); ``raised`` (the book rose
+                     ``min_rise`` since the grasp began) needs a history: read as lifted, above 5 cm + ``min_rise``
 gripped              the item (centre or axis) at the grasp point (``max_dist``)
 carried, conveyed    at the grasp point, or its lower end already inside the container's opening
 upright, standing    axis within ``max_tilt`` of image vertical, blob elongated
@@ -258,8 +259,8 @@ class GripperRules:
         if key == "grasped":
             return (A(True, f"{n} is between the fingers") if held
                     else A(False, f"{n} is not in the gripper"))
-        if key == "lifted":
-            up = g.z >= float(th.get("min_z", 0.05))
+        if key in ("lifted", "raised"):  # raised: one image has no "where it began"; read as lifted
+            up = g.z >= float(th.get("min_z", 0.05 + float(th.get("min_rise", 0.0))))
             return (A(True, f"{n} is lifted in the gripper") if held and up
                     else A(False, f"{n} is not lifted: not in the gripper or still low"))
         if key in ("gripped", "carried", "conveyed"):

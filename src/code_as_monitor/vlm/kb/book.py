@@ -47,12 +47,14 @@ def grasp(obj: str) -> list[dict[str, Any]]:
     No ``steady`` (displacement) check: a book is turned about its centre under the gripper, which stays
     within the steady check's grasp-point radius, so after a halt there that check could never fail on
     the restart state (path coverage rejects it); ``aligned`` is the book's version."""
-    al, li = thresholds("aligned"), thresholds("lifted_book")
+    al, li, ra = thresholds("aligned"), thresholds("lifted_book"), thresholds("raised_book")
     return [
         _c(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (slope within 20, direction within 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
-        *in_gripper(obj, _cover(obj), li),
+        in_gripper(obj, _cover(obj), li)[0],
+        _c(f"raised_{obj}", f"{nice(obj)} is picked up: its centre at least {ra['min_rise'] * 100:.0f} cm above "
+           f"where it was when the grasp began", "upon", False, ra, [_cover(obj)]),
     ]
 
 
@@ -89,7 +91,7 @@ def stow(obj: str, target: str) -> list[dict[str, Any]]:
     ]
 
 
-REGRASP = ("steady", "aligned", "grasped", "lifted", "gripped", "conveyed", "shelved", "standing")
+REGRASP = ("steady", "aligned", "grasped", "lifted", "raised", "gripped", "conveyed", "shelved", "standing")
 
 
 def next_book(book: str, shelf: str, previous: dict[str, Any] | None, kind: str) -> dict[str, Any]:

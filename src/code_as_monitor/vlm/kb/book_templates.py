@@ -36,6 +36,21 @@ def aligned(c: Spec) -> str:
     return _fn(c, body)
 
 
+def raised(c: Spec) -> str:
+    """Parts: [cover (point)]. The book's centre is at least ``min_rise`` above where it was in the oldest frame
+    of H (the grasp's start): it has been picked up, wherever it lay."""
+    (x,) = c["element_ids"][:1]
+    th, xn = c["thresholds"], _name(c, 0)
+    mr = _f(th["min_rise"])
+    body = f"""
+    rise = centroid(E[{x}])[2] - centroid(H[{x}][0])[2]
+    if rise >= {mr}:
+        return True, {_q(xn + " is picked up: it rose %.3f m since the grasp began")} % rise, rise - {mr}
+    return False, {_q(xn + " is not picked up: it rose only %.3f m since the grasp began (needs " + mr + ")")} % rise, rise - {mr}
+"""
+    return _fn(c, body)
+
+
 def conveyed(c: Spec) -> str:
     """Parts: [gripper tip (point), cover (point), spine (line), slot (surface)]. The book stays at the grasp
     point unless it already stands low in the slot (it was let go there)."""
@@ -115,6 +130,6 @@ def standing(c: Spec) -> str:
 
 
 BOOK_TEMPLATES: dict[str, Callable[[Spec], str]] = {
-    "aligned": aligned, "conveyed": conveyed, "poised": poised, "aimed": aimed, "shelved": shelved, "standing": standing,
+    "aligned": aligned, "raised": raised, "conveyed": conveyed, "poised": poised, "aimed": aimed, "shelved": shelved, "standing": standing,
 }
 """Template key (constraint id prefix) -> writer, for the book constraints."""

@@ -100,6 +100,11 @@ THRESHOLDS.update({
     # grasp, upon: the book's (painted) centre within 8 cm of the grasp point, lifted above 5 cm. Its centre
     # point comes from the visible faces of a 20 x 12 cm book partly hidden by the gripper (up to 5 cm off).
     "lifted_book": {"max_dist": 0.08, "min_z": 0.05},
+    # grasp, upon: the book has risen 5 cm above where it was when the grasp began (the grasp lifts it to
+    # carry height, 10 cm or more above a book lying flat or standing in the shelf; 5 cm is beyond the
+    # wander of the painted centre of a half-hidden book). Relative, not "above 5 cm": a book left standing
+    # in the shelf is higher than that before the jaws close, so an absolute height ended the grasp early.
+    "raised_book": {"min_rise": 0.05},
     # stow, during: the book (its centre) stays within 4 cm of the grasp point until its lower end is
     # in the slot: centre within 4 cm of the slot's centre (15 cm slot, 12 cm wide book) and 3 cm below
     # the rim.
