@@ -11,7 +11,7 @@ Recovery by the failed constraint's id prefix (``"failure: <id>: <reason>"``):
 ================================================ ============================================
 failed                                           next subgoal
 ================================================ ============================================
-steady/aligned/grasped/lifted (moved, turned,     grasp again (where it lies now)
+steady/aligned/grasped/raised (moved, turned,    grasp again (where it lies now)
 not held), gripped/conveyed (dropped),
 shelved/standing (not standing in the slot)
 upright/poised (tilted in the gripper)            reorient again
@@ -42,7 +42,8 @@ def _slot(obj: str) -> dict[str, str]:
 
 
 def grasp(obj: str) -> list[dict[str, Any]]:
-    """``grasp``: during (proactive) the book lies as it did (same slope and direction); upon, gripped and lifted.
+    """``grasp``: during (proactive) the book lies as it did (same slope and direction); upon, gripped, and
+    risen since the grasp began.
 
     No ``steady`` (displacement) check: a book is turned about its centre under the gripper, which stays
     within the steady check's grasp-point radius, so after a halt there that check could never fail on
