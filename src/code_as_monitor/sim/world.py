@@ -93,7 +93,8 @@ class World:
         self.add_object("table", [table], whole=[(table, -1)])
         self.robot = Panda(c, ee_kind=ee)
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
-        self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
+        self.cameras = [SimCamera(s, c, self.renderer, self.robot.grasp_pose if s.mount == "wrist" else None)
+                        for s in specs]
 
     # --- objects ------------------------------------------------------------------------------------
     def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
