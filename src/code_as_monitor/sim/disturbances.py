@@ -49,6 +49,12 @@ class Disturbance:
     def install(self, world: Any) -> None:
         """Register tick hooks on ``world``."""
 
+    @staticmethod
+    def paused(world: Any) -> bool:
+        """No new disturbance starts while ``world.disturbances_paused`` (counterfactual rollouts ask "what if
+        nothing were done", not "what if something else went wrong"); effects already under way go on."""
+        return bool(getattr(world, "disturbances_paused", False))
+
     def wrap(self, policy: Any) -> Any:
         """Return the policy to use (default: unchanged)."""
         return policy
@@ -151,7 +157,7 @@ class Drop(Disturbance):
                 self._falling.pop(held, None)
                 world.events.log(world.t, "regrasped", world.name_of(held), dropped_at=t0)
             period = max(1, round(1.0 / (self.check_hz * world.dt)))
-            if self._held_ticks % period == 0:
+            if self._held_ticks % period == 0 and not self.paused(world):
                 self.decisions += 1
                 if self.rng.random() < self.p:
                     self.releases += 1
@@ -218,7 +224,7 @@ class _NoisyPlace(PolicyWrapper):
         self.noise = noise
 
     def start(self, action: Action) -> None:
-        if action.skill == "place_on":
+        if action.skill == "place_on" and not self.noise.paused(self.inner.world):
             self.inner.validate(action)
             xy = np.asarray(self.inner.place_xy(action), dtype=float)
             off = self.noise.offset()
