@@ -135,17 +135,32 @@ def test_tower_order_reads_colours_in_order():
 # --- programs on constructed states --------------------------------------------------------------
 
 
-def test_pick_program_verdicts(make_elements, run_program):
+def test_pick_program_verdicts(make_elements, run_program, history_of):
     gen, coder = gen_coder()
     sg = gen.next_subgoal(STACK, IMG, infer_objects(STACK))
+    start = make_elements(sg, {("robot", "tip"): [0.3, -0.3, 0.3], ("green_block", ""): [0.5, 0, 0.02]})
     held = {("robot", "tip"): [0.5, 0, 0.12], ("green_block", ""): [0.5, 0, 0.10]}
     src, els = program_for(coder, sg, make_elements, held)
-    ok, reason, margin = run_program(src, els)["held_green_block"]
+    ok, reason, margin = run_program(src, els, history_of(start, els))["held_green_block"]
     assert ok is True and margin > 0
-    on_table = {("robot", "tip"): [0.5, 0, 0.12], ("green_block", ""): [0.5, 0, 0.02]}
-    ok, reason, margin = run_program(src, make_elements(sg, on_table))["held_green_block"]
+    on_table = make_elements(sg, {("robot", "tip"): [0.5, 0, 0.12], ("green_block", ""): [0.5, 0, 0.02]})
+    ok, reason, margin = run_program(src, on_table, history_of(start, on_table))["held_green_block"]
     assert ok is False and "not held" in reason and margin < 0
     assert classify(reason) == "dropped"
+
+
+def test_a_block_resting_on_the_tower_under_a_hovering_cup_is_not_held(make_elements, run_program, history_of):
+    """The bug behind the placement-noise loops: green sits on red (high) and the cup hovers on it (close), but
+    nothing was picked: it has not risen since the pick began."""
+    gen, coder = gen_coder()
+    sg = gen.next_subgoal(STACK, IMG, infer_objects(STACK))
+    resting = {("robot", "tip"): [0.5, 0, 0.085], ("green_block", ""): [0.505, 0, 0.06]}
+    src, els = program_for(coder, sg, make_elements, resting)
+    start = make_elements(sg, {("robot", "tip"): [0.3, -0.3, 0.3], ("green_block", ""): [0.505, 0, 0.06]})
+    ok, reason, margin = run_program(src, els, history_of(start, els))["held_green_block"]
+    assert ok is False and margin < 0 and classify(reason) == "dropped"
+    lifted = make_elements(sg, {("robot", "tip"): [0.5, 0, 0.13], ("green_block", ""): [0.5, 0, 0.105]})
+    assert run_program(src, lifted, history_of(start, lifted))["held_green_block"][0] is True
 
 
 def _place_state(x_xyz, tip_xyz, target_xyz=(0.5, 0.0, 0.02)):

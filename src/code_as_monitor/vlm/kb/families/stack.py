@@ -24,16 +24,19 @@ from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import TIP, answer, constraint, done, nice, whole
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import classify, mentioned
+from code_as_monitor.vlm.kb.shared.grip import held
 
 COLOURS = ("red", "green", "blue", "yellow", "orange", "purple", "pink", "white", "black", "brown", "gray", "cyan")
 BLOCK_SIZE = 0.04
 """Nominal edge of a stacking block (m); the height tests below are expressed in block sizes."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
-    # pick: the block is on the suction cup and off the table.
+    # pick: the block is on the suction cup and rose with it since the pick began (not "high": a block resting
+    # on the tower under a hovering cup is high and near the tip before anything is picked).
     "held": {
         "max_dist": 0.04,  # tip to block centre: half a block (contact) plus 2 cm slack
-        "min_z": 0.05,  # block centre height: resting centre (2 cm) plus 3 cm lift
+        "min_rise": 0.03,  # the pick lifts the cup 6 cm above the block's top (its approach clearance); 3 cm
+                           # is most of a block's height, far beyond the wander of a tracked centre
     },
     # place_on, during: the carried block stays on the cup until it rests on the target.
     "attached": {
@@ -108,16 +111,8 @@ def scene(ins: Instruction) -> list[str] | None:
 
 # --- constraint builders -----------------------------------------------------------------------------------
 def pick(obj: str) -> list[dict[str, Any]]:
-    """``pick``: upon, the object is on the suction cup and lifted."""
-    thr = _thr("held")
-    return [
-        constraint(
-            f"held_{obj}",
-            f"{nice(obj)} is held by the suction cup: its centre within {thr['max_dist'] * 100:.0f} cm of the tip "
-            f"and lifted above {thr['min_z'] * 100:.0f} cm",
-            "upon", False, thr, [TIP, whole(obj)],
-        )
-    ]
+    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began."""
+    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup")]
 
 
 def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -176,21 +171,6 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
 
 
 # --- templates ---------------------------------------------------------------------------------------------
-def held(c: Spec) -> str:
-    tip, x = c["element_ids"][:2]
-    th, xn = c["thresholds"], obj_name(c, 1)
-    md, mz = num(th["max_dist"]), num(th["min_z"])
-    body = f"""
-    d = distance(E[{tip}], E[{x}])
-    z = centroid(E[{x}])[2]
-    margin = np.min([{md} - d, z - {mz}])
-    if d <= {md} and z >= {mz}:
-        return True, {lit(xn + " is held by the suction cup (%.3f m from the tip, lifted to %.3f m)")} % (d, z), margin
-    return False, {lit(xn + " is not held by the suction cup: %.3f m from the tip (limit " + md + "), centre %.3f m above the table (needs " + mz + ")")} % (d, z), margin
-"""
-    return check_fn(c, body)
-
-
 def attached(c: Spec) -> str:
     tip, x, tgt = c["element_ids"][:3]
     th, xn, tn = c["thresholds"], obj_name(c, 1), obj_name(c, 2)
@@ -333,7 +313,7 @@ FAMILY = TaskFamily(
     next_subgoal=next_stack,
     scene=scene,
     thresholds=THRESHOLDS,
-    templates={"held": held, "attached": attached, "still": still, "centred": centred, "resting": resting,
+    templates={"attached": attached, "still": still, "centred": centred, "resting": resting,
                "released": released, "tower": tower},
     keywords=(("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
               ("rests on", "resting"), ("released", "released"), ("still on", "tower")),
