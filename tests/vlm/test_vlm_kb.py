@@ -85,7 +85,8 @@ def _subgoal(gen, objs, n):
         ("failed: attached_green_block: green_block dropped: detached from the suction cup", "pick", "green_block"),
         ("green_block is offset 0.021 m from the centre of red_block: stacking on it will topple", "pick",
          "green_block"),
-        ("red_block moved 0.030 m: the tower below is disturbed", "pick", "green_block"),
+        # the block below was pushed while green was on its way down: green is still on the cup, place it again
+        ("red_block moved 0.030 m: the tower below is disturbed", "place_on", "green_block"),
         ("green_block is still held by the suction cup on red_block", "place_on", "green_block"),
         ("something unexpected", "place_on", "green_block"),
     ],
@@ -98,13 +99,19 @@ def test_stack_recovery_after_place_green(feedback, skill, obj):
     assert (nxt.action.skill, nxt.action.args["obj"]) == (skill, obj)
 
 
-def test_stack_collapse_while_placing_blue_restarts_from_green():
+def test_stack_collapse_while_placing_blue_sets_blue_down_then_restarts_from_green():
+    """Blue may still be on the suction cup, and a cup holding blue cannot pick green: blue goes down on free
+    table first; the set-down names the level to rebuild from, which the next (stateless) call reads."""
     gen, _ = gen_coder()
     objs = infer_objects(STACK)
     place_blue = _subgoal(gen, objs, 3)
     fb = "green_block is no longer on red_block (height difference 0.001 m): the tower collapsed"
-    nxt = gen.next_subgoal(STACK, IMG, objs, place_blue, fb)
-    assert nxt.action.to_dict() == {"skill": "pick", "args": {"obj": "green_block"}}
+    aside = gen.next_subgoal(STACK, IMG, objs, place_blue, fb)
+    assert aside.action.to_dict() == {"skill": "place_on", "args": {"obj": "blue_block", "target": "table"}}
+    assert [c.id for c in aside.constraints] == ["released_blue_block"]
+    for outcome in ("success", "failure: released_blue_block: blue_block is still held by the suction cup"):
+        nxt = gen.next_subgoal(STACK, IMG, objs, aside, outcome)
+        assert nxt.action.to_dict() == {"skill": "pick", "args": {"obj": "green_block"}}
     fb = "blue_block dropped: detached from the suction cup (0.200 m from the tip) before resting on green_block"
     assert gen.next_subgoal(STACK, IMG, objs, place_blue, fb).action.args == {"obj": "blue_block"}
 

@@ -271,11 +271,37 @@ def _place(task: StackGoal, level: int, why: str) -> dict[str, Any]:
     )
 
 
+def _set_down(task: StackGoal, obj: str, restart: int, why: str) -> dict[str, Any]:
+    """Put ``obj`` down on free table (it may still be on the suction cup), then pick the ``restart`` level."""
+    nxt = task.tower[restart]
+    rel = _thr("released")
+    cons = [constraint(f"released_{obj}", f"{nice(obj)} is released: the suction cup tip is at least "
+                       f"{rel['release_dist'] * 100:.0f} cm from its centre", "upon", False, rel, [TIP, whole(obj)])]
+    return answer(f"put {nice(obj)} down on the table, clear of the tower, before picking up {nice(nxt)} again",
+                  "place_on", {"obj": obj, "target": "table"}, cons, why)
+
+
+def _restart_level(task: StackGoal, feedback: str | None) -> int:
+    """The lowest tower level the feedback names (at least level 1): where a disturbed tower is rebuilt from."""
+    levels = [task.tower.index(n) for n in mentioned(feedback, task.tower)]
+    return max(1, min(levels)) if levels else 1
+
+
 def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
+    """The next subgoal of the tower from the previous one and its feedback (stateless).
+
+    A placement that failed with the tower disturbed (a collapse, the block below pushed) may have left the
+    carried block on the suction cup, and a cup that holds one block cannot pick another: the block is put down
+    on free table first, and the subgoal's text names the level to rebuild from, which the next call reads.
+    """
     tower = task.tower
     action = (previous or {}).get("action") or {}
     skill, args = action.get("skill"), action.get("args") or {}
     obj = args.get("obj")
+    if skill == "place_on" and args.get("target") == "table" and obj in tower:  # a set-down: rebuild now
+        named = mentioned((previous or {}).get("text"), tower)
+        level = tower.index(named[-1]) if named and named[-1] != obj else _restart_level(task, feedback)
+        return _pick(task, max(1, level), f"{obj} is out of the way; rebuild from {tower[max(1, level)]}")
     if not previous or skill not in ("pick", "place_on") or obj not in tower[1:]:
         if previous and previous.get("done"):
             return done("the tower is complete")
@@ -283,8 +309,14 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
     level = tower.index(obj)
     cat = classify(feedback)
     if cat == "collapse":
-        levels = [tower.index(n) for n in mentioned(feedback, tower)]
-        lowest = max(1, min(levels)) if levels else 1
+        lowest = _restart_level(task, feedback)
+        if skill == "place_on" and lowest != level:
+            return _set_down(task, obj, lowest, f"the tower was disturbed while {obj} was being placed; it may still "
+                                                f"be on the suction cup, so put it aside, then rebuild from "
+                                                f"{tower[lowest]} (level {lowest})")
+        if skill == "place_on":
+            return _place(task, level, f"the tower below {obj} was disturbed; {obj} is still to be placed on "
+                                       f"{tower[level - 1]}")
         return _pick(task, lowest, f"the tower was disturbed; restart from the lowest level that may be missing, "
                                    f"{tower[lowest]} (level {lowest})")
     if skill == "pick":
