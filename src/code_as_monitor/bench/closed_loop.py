@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.loop import DEFAULT_MAX_REPLANS
-from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.checks import check_count, check_positive, check_seed
 from code_as_monitor.core.run_io import EventLog, write_json
 
 log = logging.getLogger(__name__)
@@ -56,10 +56,11 @@ class ClosedLoopConfig:
     max_replans: int = DEFAULT_MAX_REPLANS
 
     def __post_init__(self) -> None:
-        if self.width < 32 or self.height < 32:
-            raise ConfigError(f"camera size must be at least 32x32, got {self.width}x{self.height}")
-        if self.camera_hz <= 0:
-            raise ConfigError(f"camera_hz must be > 0, got {self.camera_hz!r}")
+        check_seed("ClosedLoopConfig", self.seed)
+        check_count("ClosedLoopConfig", "width", self.width, 32)
+        check_count("ClosedLoopConfig", "height", self.height, 32)
+        check_positive("ClosedLoopConfig", "camera_hz", self.camera_hz)
+        check_count("ClosedLoopConfig", "max_replans", self.max_replans, 0)
 
 
 def check_choices(cfg: ClosedLoopConfig) -> None:
