@@ -115,7 +115,7 @@ def run_closed_loop(
     from code_as_monitor.planning.generator import ConstraintGenerator
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
-    from code_as_monitor.viz.video import VideoWriter, compose_frame
+    from code_as_monitor.viz.video import FrameComposer, VideoWriter
     from code_as_monitor.vlm import VLMBackendConfig, make_backend
 
     wall0 = time.perf_counter()
@@ -134,9 +134,11 @@ def run_closed_loop(
         if on_event is not None:
             on_event(ev)
 
+    compose = FrameComposer(fps=cfg.camera_hz)  # keeps verdict banners up for 1.5 s of video
+
     def on_frame(obs, elements, stale, verdicts, banner) -> None:
         if video is not None:
-            video.write(compose_frame(obs, elements, stale, verdicts, banner))
+            video.write(compose(obs, elements, stale, verdicts, banner))
 
     def on_prompt(index: int, subgoal: Any, images: dict[str, np.ndarray], source: str) -> None:
         if run_dir is None:
@@ -169,6 +171,8 @@ def run_closed_loop(
     finally:
         runtime.close()
         if video is not None:
+            for frame in compose.tail():
+                video.write(frame)
             video.close()
     summary: dict[str, Any] = {
         "method": "cam",
