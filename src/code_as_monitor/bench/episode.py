@@ -18,6 +18,8 @@ from typing import Any
 
 from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
 from code_as_monitor.bench.protocol import Job, condition, episode_seed
+from code_as_monitor.core.checks import check_fields, check_positive
+from code_as_monitor.core.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +51,13 @@ class EpisodeOptions:
     camera_hz: float = 10.0
     counterfactual: bool = True
     horizon_s: float = DEFAULT_HORIZON_S
+
+    def __post_init__(self) -> None:
+        check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
+        for name in ("doremi_k_s", "camera_hz", "horizon_s"):
+            check_positive("EpisodeOptions", name, getattr(self, name))
+        if not isinstance(self.backend_options, dict):
+            raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -33,8 +33,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.core.checks import check_count
 from code_as_monitor.core.errors import MissingExtraError
-from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.core.registry import Choice
 
 Task = tuple[Any, Any, Path | None]  # (job, options, video dir)
 Worker = Callable[[Any, Any, Path | None], dict[str, Any]]
@@ -47,7 +48,7 @@ class ExecutorConfig(Choice):
     workers: int = 0
 
     def __post_init__(self) -> None:
-        check_positive(type(self).__name__, "workers", self.workers, allow_zero=True)
+        check_count(type(self).__name__, "workers", self.workers, 0)
 
     def n_workers(self) -> int:
         return self.workers or max(1, os.cpu_count() or 1)

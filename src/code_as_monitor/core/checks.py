@@ -50,11 +50,15 @@ def check_range(owner: str, field: str, value: Any, lo: float | None = None, hi:
     low_bad = lo is not None and (f <= lo if lo_open else f < lo)
     if low_bad or (hi is not None and f > hi):
         left = "(" if lo_open else "["
-        lo_s = "-inf" if lo is None else f"{lo:g}"
-        hi_s = "inf" if hi is None else f"{hi:g}"
+        lo_s = "-inf" if lo is None else _fmt(lo)
+        hi_s = "inf" if hi is None else _fmt(hi)
         bound = (f"> {lo_s}" if lo_open else f">= {lo_s}") if hi is None else f"in {left}{lo_s}, {hi_s}]"
         raise ConfigError(f"{_name(owner, field)} must be {bound}, got {value!r}")
     return f
+
+
+def _fmt(x: float) -> str:
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else f"{x:g}"
 
 
 def check_positive(owner: str, field: str, value: Any, allow_zero: bool = False) -> None:
