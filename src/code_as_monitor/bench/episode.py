@@ -26,7 +26,8 @@ log = logging.getLogger(__name__)
 RECORD_VERSION = 1
 OPEN_LOOP_VIDEO_HZ = 2.0
 GT_KINDS = ("drop", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
-            "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone")
+            "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone",
+            "policy_failure")
 """Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
 
 
@@ -41,6 +42,8 @@ class EpisodeOptions:
         segmenter, tracker: CaM's perception choices.
         camera_hz: CaM's monitoring rate (frames per second of sim time).
         counterfactual: run counterfactual rollouts at proactive alarms; ``horizon_s`` their length.
+        max_replans: failed subgoals a closed-loop method may re-plan after (None: the agents' default); 0 is
+            the RLBench protocol's "a flagged episode is abandoned" (``bench.restarts``).
     """
 
     backend: str = "kb"
@@ -51,11 +54,15 @@ class EpisodeOptions:
     camera_hz: float = 10.0
     counterfactual: bool = True
     horizon_s: float = DEFAULT_HORIZON_S
+    max_replans: int | None = None
 
     def __post_init__(self) -> None:
         check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
         for name in ("doremi_k_s", "camera_hz", "horizon_s"):
             check_positive("EpisodeOptions", name, getattr(self, name))
+        if self.max_replans is not None and (isinstance(self.max_replans, bool) or not isinstance(self.max_replans, int)
+                                             or self.max_replans < 0):
+            raise ConfigError(f"EpisodeOptions.max_replans must be None or an integer >= 0, got {self.max_replans!r}")
         if not isinstance(self.backend_options, dict):
             raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 
@@ -68,8 +75,9 @@ def _compact_gt(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for e in events:
         if e["kind"] in GT_KINDS:
             c = {"t": e["t"], "kind": e["kind"], "obj": e.get("obj", "")}
-            if "count" in e:
-                c["count"] = e["count"]
+            for k in ("count", "what", "objects"):
+                if k in e:
+                    c[k] = e[k]
             out.append(c)
     return out
 
@@ -111,7 +119,8 @@ def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
 
     cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend,
                            backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
-                           camera_hz=opts.camera_hz, video=run_dir is not None)
+                           camera_hz=opts.camera_hz, video=run_dir is not None,
+                           **({} if opts.max_replans is None else {"max_replans": opts.max_replans}))
     s = run_closed_loop(cfg, run_dir, on_event=cfs, on_env=cfs.set_env)
     ep = s["episode"]
     return {"success": s["success"], "reason": s["reason"], "sim_time_s": s["sim_time_s"],
@@ -161,7 +170,8 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
                 planner = ConstraintGenerator(backend)
                 vqa = make_vqa(opts.backend, backend, planner.usage)
                 doremi = method == "doremi"
-                cfg = DoReMiConfig(k_s=opts.doremi_k_s) if doremi else InnerMonologueConfig()
+                bound = {} if opts.max_replans is None else {"max_replans": opts.max_replans}
+                cfg = DoReMiConfig(k_s=opts.doremi_k_s, **bound) if doremi else InnerMonologueConfig(**bound)
 
                 def on_frame(obs: Any, banner: str) -> None:
                     if video is not None:

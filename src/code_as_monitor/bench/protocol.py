@@ -5,7 +5,10 @@ CLIPort"): stack-in-order with drop probability p in {0, 0.15, 0.3} (no placemen
 placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
 (OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen, stow-book, pour-tea, plus open-drawer
-(articulated, the paper's RLBench kind of object).
+(articulated, the paper's RLBench kind of object). ``rlbench``: the paper's RLBench table (supplementary,
+"Performance in RLBench"): six tasks with four cameras and a noisy policy (the learned-policy analogue, no
+disturbance); a flagged episode is abandoned and another started until each cell has its valid episodes
+(:mod:`code_as_monitor.bench.restarts`).
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -67,10 +70,18 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("drawer-none", "open-drawer", {}, "Open drawer, None", undisturbed=True, suite="table2"),
     Condition("drawer-slip", "open-drawer", {"disturbance": "slip"}, "Open drawer, grasp slips off the handle",
               suite="table2"),
+    Condition("rlb-open-drawer", "open-drawer", {"noise": 1.0, "views": "rlbench"}, "Open drawer", undisturbed=True,
+              suite="rlbench"),
+    Condition("rlb-put-in-drawer", "put-in-drawer", {}, "Put in drawer", undisturbed=True, suite="rlbench"),
+    Condition("rlb-screw-bulb", "screw-bulb", {}, "Screw bulb", undisturbed=True, suite="rlbench"),
+    Condition("rlb-turn-tap", "turn-tap", {}, "Turn tap", undisturbed=True, suite="rlbench"),
+    Condition("rlb-drag-stick", "drag-stick", {}, "Drag stick", undisturbed=True, suite="rlbench"),
+    Condition("rlb-sweep-to-dustpan", "sweep-to-dustpan", {}, "Sweep to dustpan", undisturbed=True,
+              suite="rlbench"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {
-    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2")
+    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "rlbench")
 }
 SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
@@ -79,6 +90,11 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     # (baselines/vqa_standin_gripper.py), the drawer's (baselines/vqa_standin_drawer.py) and the teapot's
     # (baselines/vqa_standin_tea.py), each answering from one front image with a single image's mistakes.
     "table2": {"seeds": 1, "episodes": 10, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
+    # The paper's RLBench table: ARP alone, +DoReMi, +CaM, 1000 valid episodes per task there. ``episodes`` is the
+    # valid episodes wanted per cell; a flagged one is abandoned (``max_replans`` 0) and another drawn, up to
+    # ``max_attempts_factor`` x ``episodes`` attempts (bench.restarts).
+    "rlbench": {"seeds": 1, "episodes": 20, "methods": ("open-loop", "doremi", "cam"), "restarts": True,
+                "max_attempts_factor": 3, "options": {"max_replans": 0}},
 }
 
 METHODS: tuple[str, ...] = ("open-loop", "inner-monologue", "doremi", "cam")

@@ -116,14 +116,16 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills, RLBenchSkills):
 
     def _judge(self, skill: str, **args: Any) -> None:
         """Ask the task whether ``skill`` did what it should (``task.judge(world, skill, args) -> what | None``) and
-        log the episode's first failure as a ``policy_failure`` event (``what``, ``skill``): later ones are its
-        consequences. Tasks without ``judge`` log nothing."""
+        log the episode's first failure as a ``policy_failure`` event (``what``, ``skill``, ``objects``: the objects
+        the skill acted on): later ones are its consequences. Tasks without ``judge`` log nothing."""
         judge = getattr(self.task, "judge", None)
         if judge is None:
             return
         what = judge(self.world, skill, args)
         if what and not self.world.events.of_kind("policy_failure"):
-            self.world.events.log(self.world.t, "policy_failure", args.get("obj", ""), what=what, skill=skill)
+            objects = [args[k] for k in ("obj", "target", "goal") if isinstance(args.get(k), str) and args[k]]
+            self.world.events.log(self.world.t, "policy_failure", args.get("obj", ""), what=what, skill=skill,
+                                  objects=objects)
 
     # --- validation -----------------------------------------------------------------------------------------
     def validate(self, action: Action) -> None:
