@@ -148,6 +148,13 @@ TABLE: list[tuple[str, str, Any]] = [
     ("drawer", "open the cabinet drawer", FIXED["drawer"]),
     ("drawer", "close the drawer", REFUSE),
     ("drawer", "open the teapot", REFUSE),
+    # --- plain requests the kb does not read (yet): each refusal is counted, never a wrong plan ----------
+    ("stack", "stack them: red first, green second and blue last", tower("red", "green", "blue")),
+    ("sweep", "push the blocks into the zone until half of them are inside", sweep(16, 24, 18)),
+    ("sweep", "sweep the blocks so that half of them end up in the zone", sweep(16, 24, 18)),
+    ("drawer", "open the drawer 10 cm", [("grasp", {"obj": "drawer_cabinet", "part": "handle"}),
+                                         ("pull", {"obj": "drawer_cabinet", "distance": 0.12})]),
+    ("rope", "use the string to block the open end of the square", FIXED["rope"]),
     # --- nothing the kb knows ---------------------------------------------------------------------------
     ("book", "stack the pen on the book", REFUSE),
     ("stack", "juggle three oranges", REFUSE),

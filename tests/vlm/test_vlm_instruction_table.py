@@ -38,6 +38,7 @@ STACK3 = (
     "the {2} block should end up on the {1} block, and the {1} block on the {0} block",
     "stack all three blocks so that {1} is in the middle, {2} is at the top and {0} is at the bottom",
     "make a stack: {0} first, then {1}, finally {2}",
+    "stack {0} {1} {2}",
 )
 STACK2 = (
     "put the {1} block on the {0} block",
@@ -143,3 +144,25 @@ def test_a_refusal_names_what_it_did_not_understand_in_one_line(instruction):
     assert verdict == "right" and "\n" not in detail
     named = {"stack": "yellow", "push": "40 blocks", "close": "'close'", "put": "pencil"}[instruction.split()[0]]
     assert named in detail
+
+
+def test_random_word_salad_is_planned_or_refused_never_crashes():
+    """Words of the lexicon in random order: the kb either refuses with an InstructionError or gives answers
+    that pass the generator's schema; any other exception fails the test."""
+    from code_as_monitor.core.errors import InstructionError
+    from code_as_monitor.vlm.grammar import lexicon as lx
+    from code_as_monitor.vlm.kb.planner import next_subgoal
+    from code_as_monitor.vlm.schemas import parse_generator_output
+
+    rng = random.Random(11)
+    words = [*lx.NOUNS, *lx.VERBS, *lx.PREPS, *lx.COLOURS, *lx.NUMBERS, *lx.FRACTIONS,
+             *(" ".join(k) for k in lx.POSITIONS), *(" ".join(k) for k in lx.MODIFIERS),
+             ",", "then", "and", "the", "a", "it", "them", "%", "10", "3.5", "cm", "-", "'s", "of the", ":", "."]
+    for _ in range(400):
+        text = " ".join(rng.choice(words) for _ in range(rng.randint(1, 12)))
+        objects = SCENES[rng.choice(list(SCENES))]
+        try:
+            answer = next_subgoal({"instruction": text, "objects": objects})
+        except InstructionError:
+            continue
+        parse_generator_output(answer, {"objects": objects})

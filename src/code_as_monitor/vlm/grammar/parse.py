@@ -181,6 +181,8 @@ class _Parser:
             i += 1
         self.close(len(t))
         self.dangle()
+        if self.pos:
+            self.stray.append(self.pos)  # a place with no phrase after it
 
     def unit(self, i: int, tok: Token) -> None:
         np = self.np
@@ -225,8 +227,10 @@ class _Parser:
             self.dangle()
             if self.last is not None and not self.phrases[self.last].position:
                 self.phrases[self.last].position = str(v)
+            elif self.last is None and not self.pos:
+                self.pos = str(v)  # "on top: blue", "at the bottom, red"
             else:
-                self.pos = str(v)
+                self.stray.append(tok.text)  # a second place for one phrase: nothing to attach it to
         elif k == "dir":
             last = self.phrases[self.last] if self.last is not None else None
             if last is not None and last.ordinal and not last.ordinal_from:
@@ -279,10 +283,13 @@ class _Parser:
         conns: list[str] = []
         for p in self.phrases:
             seps = self.seps.get(p.index, [])
-            joined = bool(run) and bool(seps) and p.index not in linked and p.segment > self.phrases[run[-1]].segment
+            prev = self.phrases[run[-1]] if run else None
+            adjacent = prev is not None and p.start == prev.end and p.segment == prev.segment  # "red green blue"
+            joined = prev is not None and p.index not in linked and (
+                (bool(seps) and p.segment > prev.segment) or adjacent)
             if joined:
                 run.append(p.index)
-                conns.append("then" if "then" in seps else ("and" if "and" in seps else seps[-1]))
+                conns.append("then" if "then" in seps else ("and" if "and" in seps else (seps[-1] if seps else "")))
                 continue
             if len(run) >= 2:
                 out.append(Listing(tuple(run), tuple(conns)))
