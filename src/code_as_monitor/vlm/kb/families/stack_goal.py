@@ -171,10 +171,13 @@ def _listings(ins: Instruction, r: Reading, refs: dict[int, str], c: OrderConstr
         r.used_directions = False
 
 
+SIM_BLOCKS = ("red_block", "green_block", "blue_block")
+"""The simulator's stack-in-order blocks."""
+
+
 def scene(ins: Instruction) -> list[str] | None:
-    """``<colour>_block`` for each colour named (first mention order), plus the table; None when no colour is named."""
-    colours = list(dict.fromkeys(p.colour for p in ins.phrases if p.colour))
-    return [f"{c}_block" for c in colours] + ["table"] if colours and claims(ins) else None
+    """The simulator's stack-in-order scene (its three blocks and the table); None when not about stacking."""
+    return [*SIM_BLOCKS, "table"] if claims(ins) else None
 
 
 def task_params(goal: StackGoal) -> dict[str, object]:
