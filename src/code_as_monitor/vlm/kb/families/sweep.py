@@ -241,7 +241,7 @@ def next_sweep(task: SweepGoal, previous: dict[str, Any] | None, feedback: str |
 FAMILY = TaskFamily(
     name="sweep",
     task="sweep-half",
-    summary="push about half of the blocks into the marked zone",
+    summary="push a count of the blocks (half, 10, all, ...) into the marked zone",
     example="sweep half of the blocks into the zone",
     understand=understand,
     next_subgoal=next_sweep,
