@@ -10,7 +10,7 @@ the model takes no images              4xx/5xx naming images, vision, multimodal
                                        mmproj, image_url
 the context is too small               4xx/5xx naming the context, n_ctx, too many  no
                                        tokens, maximum context length
-structured output not supported        4xx naming response_format / json_schema     falls back
+structured output not supported        4xx/5xx naming response_format / json_schema falls back
                                                                                     to the next
                                                                                     format
 the API key is rejected                401, 403                                     no
@@ -45,8 +45,11 @@ def context_fix(max_tokens: int) -> str:
 
 
 def is_format_refusal(status: int, message: str) -> bool:
-    """Does the server refuse the structured-output ``response_format`` (so the next format should be tried)?"""
-    return 400 <= status < 500 and status != 429 and bool(_FORMAT.search(message)) and not _IMAGE.search(message)
+    """Does the server refuse the structured-output ``response_format`` (so the next format should be tried)?
+
+    Any error status counts: llama-cpp-python's server answers a ``response_format`` it does not know with HTTP
+    500 (its request validation error), not 4xx."""
+    return status >= 400 and status != 429 and bool(_FORMAT.search(message)) and not _IMAGE.search(message)
 
 
 def classify(status: int, message: str, where: str, key_env: str, max_tokens: int) -> VLMError | None:
