@@ -8,7 +8,8 @@ undisturbed condition (false alarms are counted there). ``table2``: the paper's 
 (articulated, the paper's RLBench kind of object). ``rlbench``: the paper's RLBench table (supplementary,
 "Performance in RLBench"): six tasks with four cameras and a noisy policy (the learned-policy analogue, no
 disturbance); a flagged episode is abandoned and another started until each cell has its valid episodes
-(:mod:`code_as_monitor.bench.restarts`).
+(:mod:`code_as_monitor.bench.restarts`). ``instructions``: conditions whose goal an instruction sets
+(a reversed tower, a two-block tower, 10 blocks swept), to run instructions end to end.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -70,6 +71,13 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("drawer-none", "open-drawer", {}, "Open drawer, None", undisturbed=True, suite="table2"),
     Condition("drawer-slip", "open-drawer", {"disturbance": "slip"}, "Open drawer, grasp slips off the handle",
               suite="table2"),
+    # Goals set by an instruction (the task's goal parameters and success check follow it; see TaskConfig).
+    Condition("stack-reversed", "stack-in-order", {"instruction": "stack red on top of green on top of blue"},
+              "Stack in order, blue at the bottom (instruction)", undisturbed=True, suite="instructions"),
+    Condition("stack-two", "stack-in-order", {"instruction": "put the blue block on the red block", "p": 0.15},
+              "Stack two blocks, p=0.15 (instruction)", suite="instructions"),
+    Condition("sweep-ten", "sweep-half", {"instruction": "push 10 blocks into the zone"},
+              "Sweep 10 of 40 blocks, 9-11 accepted (instruction)", suite="instructions"),
     Condition("rlb-open-drawer", "open-drawer", {"noise": 1.0, "views": "rlbench"}, "Open drawer", undisturbed=True,
               suite="rlbench"),
     Condition("rlb-put-in-drawer", "put-in-drawer", {}, "Put in drawer", undisturbed=True, suite="rlbench"),
@@ -81,7 +89,7 @@ CONDITIONS: tuple[Condition, ...] = (
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {
-    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "rlbench")
+    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "instructions", "rlbench")
 }
 SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
@@ -90,6 +98,8 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     # (baselines/vqa_standin_gripper.py), the drawer's (baselines/vqa_standin_drawer.py) and the teapot's
     # (baselines/vqa_standin_tea.py), each answering from one front image with a single image's mistakes.
     "table2": {"seeds": 1, "episodes": 10, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
+    # Instructions other than the paper's: the goal parameters they map to, end to end.
+    "instructions": {"seeds": 1, "episodes": 4, "methods": ("open-loop", "cam")},
     # The paper's RLBench table: ARP alone, +DoReMi, +CaM, 1000 valid episodes per task there. ``episodes`` is the
     # valid episodes wanted per cell; a flagged one is abandoned (``max_replans`` 0) and another drawn, up to
     # ``max_attempts_factor`` x ``episodes`` attempts (bench.restarts).
