@@ -7,6 +7,13 @@
 
 Writes a fresh runs/<id>/ with episode.mp4, prompts/, programs/, events.jsonl, ground_truth.jsonl and
 summary.json. The default backend `kb` is a rule-based stand-in for a VLM (not a VLM).
+
+Exit codes (summary.json's "outcome" says the same):
+  0  success      the task's success check passed
+  1  failure      the episode ran and the task failed
+  2  bad input    a bad argument, name or configuration (incl. a missing API key); no run dir is made
+  3  error        the run stopped early: the planner's backend failed, or an error was found late
+  130 interrupted Ctrl-C or SIGTERM; summary.json is still written
 """
 
 from __future__ import annotations
@@ -79,15 +86,23 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
     )
 
 
+EXIT_CODES = {"success": 0, "failure": 1, "error": 3, "interrupted": 130}
+"""Exit code of ``cam run`` for each outcome (2 is a bad input found before the run started)."""
+
+
 def execute(args: argparse.Namespace, cfg: Any) -> int:
-    """Run ``cfg`` into a fresh run directory with the live log; returns the exit code (0 success, 1 failure)."""
+    """Run ``cfg`` into a fresh run directory with the live log; returns the exit code (see EXIT_CODES)."""
+    import sys
+
     from rich.console import Console
 
-    from code_as_monitor.bench.closed_loop import check_choices, run_closed_loop
+    from code_as_monitor.bench.closed_loop import early_end, make_checked_backend, run_closed_loop
     from code_as_monitor.cli.live_log import LiveLog
+    from code_as_monitor.cli.signals import sigterm_as_interrupt
     from code_as_monitor.core.run_io import new_run_dir
 
-    check_choices(cfg)  # a bad name is a one-line error before any run directory exists
+    # Every name is checked and the backend built (a missing API key found) before a run dir exists.
+    backend = make_checked_backend(cfg)
     console = Console(highlight=False)
     run_dir = new_run_dir(args.runs, prefix=f"{cfg.task}-s{cfg.seed}")
     if cfg.backend == "kb":
@@ -95,12 +110,28 @@ def execute(args: argparse.Namespace, cfg: Any) -> int:
     console.print(f"[dim]segmenter {cfg.segmenter}, tracker {cfg.tracker}, {cfg.width}x{cfg.height} at "
                   f"{cfg.camera_hz:g} Hz; writing {run_dir}/[/]")
     log = LiveLog(console, verbose=args.verbose > 0)
-    summary = run_closed_loop(cfg, run_dir, on_event=None if args.quiet else log)
-    if args.quiet:
+    hooks = extra_hooks(args, run_dir)
+    try:
+        with sigterm_as_interrupt():
+            summary = run_closed_loop(cfg, run_dir, on_event=None if args.quiet else log, backend=backend,
+                                      **hooks)
+    except BaseException as exc:  # summary.json is written; say how the run ended in one line
+        outcome, reason = early_end(exc)
+        print(f"cam {args.command}: {outcome}: {reason} (summary in {run_dir}/summary.json)", file=sys.stderr)
+        return EXIT_CODES[outcome]
+    if summary["outcome"] == "error":
+        print(f"cam {args.command}: error: {summary['error']} (summary in {run_dir}/summary.json)",
+              file=sys.stderr)
+    elif args.quiet:
         log.outcome({"success": summary["success"], "reason": summary["reason"],
                      "sim_time_s": summary["sim_time_s"], "vlm": summary["vlm"]["episode"]})
     console.print(f"[dim]wall time {summary['wall_time_s']:.1f} s; artefacts in {run_dir}/[/]")
-    return 0 if summary["success"] else 1
+    return EXIT_CODES[summary["outcome"]]
+
+
+def extra_hooks(args: argparse.Namespace, run_dir: Path) -> dict[str, Any]:
+    """Keyword arguments of :func:`run_closed_loop` for the optional live view (``--rerun``)."""
+    return {}
 
 
 def run(args: argparse.Namespace) -> int:
