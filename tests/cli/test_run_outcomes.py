@@ -37,7 +37,7 @@ def test_missing_api_key_is_exit_2_before_any_run_dir(tmp_path: Path, capsys, mo
 class _Rejecting(BaseHTTPRequestHandler):
     """An OpenAI-compatible server that rejects every request's key (HTTP 401)."""
 
-    def do_POST(self) -> None:  # noqa: N802
+    def do_POST(self) -> None:
         body = json.dumps({"error": {"message": "invalid api key", "type": "invalid_request_error"}}).encode()
         self.send_response(401)
         self.send_header("Content-Type", "application/json")

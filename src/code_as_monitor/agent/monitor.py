@@ -230,6 +230,16 @@ class Monitor:
             return self._over(obs.t, halt=end.halt, ended=record)
         return self._plan(obs, kind, halt=end.halt, ended=record)
 
+    def stop(self, reason: str, t: float | None = None) -> Decision:
+        """End the episode from outside (the recording ended, an operator stopped the robot); the
+        subgoal under way, if any, is left without an outcome. Returns the final ``stopped`` decision."""
+        if self._state in ("idle", "over"):
+            raise ConfigError(f"Monitor.stop called while no episode is under way (state {self._state!r})")
+        self.episode.stop_reason = reason
+        t_end = t if t is not None else (self._last_t if self._last_t is not None else 0.0)
+        self._frame_alarms = []
+        return self._over(t_end, halt=False, ended=None)
+
     def close(self) -> None:
         """Release the checker's and the runtime's workers (idempotent)."""
         self.checker.close()

@@ -20,11 +20,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
+from code_as_monitor.bench.artefacts import RunArtefacts
 from code_as_monitor.core.errors import ConfigError
-from code_as_monitor.core.run_io import EventLog, write_json
+from code_as_monitor.core.run_io import write_json
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +44,7 @@ class ClosedLoopConfig:
         width, height, camera_hz: camera settings (the monitor runs at ``camera_hz``).
         video: write ``episode.mp4``.
         max_replans: failed subgoals allowed.
+        deadline_s: the sandbox's per-frame deadline (see ``MonitorConfig.deadline_s``).
     """
 
     task: str = "stack-in-order"
@@ -61,6 +61,7 @@ class ClosedLoopConfig:
     camera_hz: float = 10.0
     video: bool = True
     max_replans: int = DEFAULT_MAX_REPLANS
+    deadline_s: float = 0.020
 
     def __post_init__(self) -> None:
         if self.width < 32 or self.height < 32:
@@ -78,7 +79,7 @@ class ClosedLoopConfig:
             backend=self.backend, backend_options=dict(self.backend_options), segmenter=self.segmenter,
             segmenter_options=dict(self.segmenter_options), tracker=self.tracker,
             tracker_options=dict(self.tracker_options), frame_hz=self.camera_hz, max_replans=self.max_replans,
-            time_limit_s=time_limit_s,
+            time_limit_s=time_limit_s, deadline_s=self.deadline_s,
         )
 
 
@@ -110,50 +111,6 @@ def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
     while world.t < end - 1e-9:
         env.policy.step()
     return env.evaluate()
-
-
-class RunArtefacts:
-    """The run directory's writers: events, video, prompts and programs (all optional without a dir)."""
-
-    def __init__(self, run_dir: Path | None, video_hz: float | None, on_event: EventCallback | None) -> None:
-        from code_as_monitor.viz.video import VideoWriter
-
-        self.run_dir = run_dir
-        self.events = EventLog(run_dir / "events.jsonl") if run_dir is not None else None
-        self.video = VideoWriter(run_dir / "episode.mp4", fps=video_hz) if (run_dir and video_hz) else None
-        self.on_event = on_event
-        self.frame_hooks: list[Callable[..., None]] = []
-
-    def emit(self, kind: str, **fields: Any) -> None:
-        ev = self.events.write(kind, **fields) if self.events is not None else {"kind": kind, **fields}
-        if self.on_event is not None:
-            self.on_event(ev)
-
-    def on_frame(self, obs: Any, elements: Any, stale: Any, verdicts: Any, banner: str) -> None:
-        if self.video is not None:
-            from code_as_monitor.viz.video import compose_frame
-
-            self.video.write(compose_frame(obs, elements, stale, verdicts, banner))
-        for hook in self.frame_hooks:
-            hook(obs, elements, stale, verdicts, banner)
-
-    def on_prompt(self, index: int, subgoal: Any, images: dict[str, np.ndarray], source: str) -> None:
-        if self.run_dir is None:
-            return
-        import cv2
-
-        (self.run_dir / "prompts").mkdir(exist_ok=True)
-        (self.run_dir / "programs").mkdir(exist_ok=True)
-        for view, img in images.items():
-            cv2.imwrite(str(self.run_dir / "prompts" / f"subgoal{index:02d}_{view}.png"), img[:, :, ::-1])
-        header = f"# subgoal {index}: {subgoal.text}\n"
-        (self.run_dir / "programs" / f"subgoal{index:02d}.py").write_text(header + source, encoding="utf-8")
-
-    def close(self) -> None:
-        if self.video is not None:
-            self.video.close()
-        if self.events is not None:
-            self.events.close()
 
 
 def early_end(exc: BaseException) -> tuple[str, str]:

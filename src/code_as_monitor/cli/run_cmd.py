@@ -26,10 +26,16 @@ from code_as_monitor.core.errors import ConfigError
 
 
 def add_common(p: argparse.ArgumentParser) -> None:
-    """Options shared by ``cam run`` and ``cam demo``."""
+    """Options shared by ``cam run``, ``cam demo`` and ``cam record``."""
     p.add_argument("--seed", type=int, default=None, help="episode seed")
     p.add_argument("--p", type=float, default=None, help="drop probability per decision step (stack-in-order)")
     p.add_argument("--q", type=float, default=None, help="placement noise bound in cm (stack-in-order)")
+    add_monitor_options(p)
+    p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
+
+
+def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> None:
+    """The monitor's options (backend, perception, rate, outputs), shared with ``cam monitor``."""
     p.add_argument("--backend", default="kb",
                    help="VLM backend: kb (offline rule-based stand-in, default), openai, replay")
     p.add_argument("--base-url", default=None, help="OpenAI-compatible server URL (openai backend)")
@@ -37,9 +43,9 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--api-key-env", default=None,
                    help="environment variable holding the API key (default OPENAI_API_KEY; 'none' for none)")
     p.add_argument("--cassette", type=Path, default=None, help="JSONL cassette (replay backend)")
-    p.add_argument("--segmenter", default="sim", help="segmenter: sim (ground-truth masks, default), color, http")
+    p.add_argument("--segmenter", default=segmenter,
+                   help=f"segmenter: sim (ground-truth masks), color, http (default {segmenter})")
     p.add_argument("--tracker", default="lk", help="tracker: lk (OpenCV Lucas-Kanade, default), sim (oracle)")
-    p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
     p.add_argument("--camera-hz", type=float, default=10.0, help="monitoring/camera rate, Hz (default 10)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
     p.add_argument("--runs", type=Path, default=Path("runs"), help="parent of the run directory (default runs/)")
@@ -67,6 +73,16 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         params["p"] = args.p
     if args.q is not None:
         params["q"] = args.q
+    return ClosedLoopConfig(
+        task=task, seed=default_seed if args.seed is None else args.seed, task_params=params,
+        backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
+        tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
+        max_replans=args.max_replans,
+    )
+
+
+def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The VLM backend's options from ``--base-url``, ``--model``, ``--api-key-env``, ``--cassette``."""
     backend_options: dict[str, Any] = {}
     if args.backend == "openai":
         for key, val in (("base_url", args.base_url), ("model", args.model), ("api_key_env", args.api_key_env)):
@@ -78,12 +94,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         backend_options["cassette"] = str(args.cassette)
     elif args.base_url or args.model:
         raise ConfigError(f"--base-url/--model apply to the openai backend, not {args.backend!r}")
-    return ClosedLoopConfig(
-        task=task, seed=default_seed if args.seed is None else args.seed, task_params=params,
-        backend=args.backend, backend_options=backend_options, segmenter=args.segmenter, tracker=args.tracker,
-        width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
-        max_replans=args.max_replans,
-    )
+    return backend_options
 
 
 EXIT_CODES = {"success": 0, "failure": 1, "error": 3, "interrupted": 130}
