@@ -122,9 +122,11 @@ class CodeChecker:
             verdicts, tr = self._monitor_frame(obs, ctx)
         except PerceptionError as exc:
             return end("error", f"perception failed: {exc}", halt=True)
-        # A check that reads a stale element (lost by the tracker, not yet re-acquired) has no verdict
-        # this frame: it can neither raise an alarm nor complete the subgoal.
+        # A check that reads a stale element (lost by the tracker, not yet re-acquired, or with
+        # non-finite points) has no verdict this frame: it can neither raise an alarm nor complete
+        # the subgoal.
         stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
+        stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
         unknown = {cid for cid, ids in self._uses.items() if ids & stale_ids}
         if unknown != self._unknown_before:
             ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))
