@@ -74,10 +74,11 @@ def run(args: argparse.Namespace) -> int:
     from code_as_monitor.bench.closed_loop import early_end
     from code_as_monitor.bench.replay import replay_bag
     from code_as_monitor.cli.live_log import LiveLog
-    from code_as_monitor.cli.run_cmd import extra_hooks
+    from code_as_monitor.cli.run_cmd import chain_events, check_extras, extra_hooks
     from code_as_monitor.cli.signals import sigterm_as_interrupt
     from code_as_monitor.core.run_io import new_run_dir
 
+    check_extras(args)
     source, cfg, instruction, backend = prepare(args)
     console = Console(highlight=False)
     run_dir = new_run_dir(args.runs, prefix=f"monitor-{args.bag.stem or 'bag'}")
@@ -90,12 +91,14 @@ def run(args: argparse.Namespace) -> int:
     try:
         with sigterm_as_interrupt():
             summary = replay_bag(source, instruction, cfg, run_dir, rate=args.rate, video=not args.no_video,
-                                 backend=backend, on_event=None if args.quiet else log,
-                                 frame_hooks=hooks.get("frame_hooks"))
+                                 backend=backend, on_event=chain_events(None if args.quiet else log, hooks),
+                                 frame_hooks=hooks.frame_hooks)
     except BaseException as exc:
         outcome, reason = early_end(exc)
         print(f"cam monitor: {outcome}: {reason} (summary in {run_dir}/summary.json)", file=sys.stderr)
         return MONITOR_EXIT[outcome]
+    finally:
+        hooks.close()
     ep = summary["episode"]
     console.print(f"replayed {summary['frames']['judged']} frames in {summary['wall_time_s']:.1f} s "
                   f"({summary['replay_realtime_factor']}x real time): {len(ep['alarms'])} alarms, "

@@ -46,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     from code_as_monitor.core.run_io import new_run_dir
 
     require("rosbags", "ros")
+    if args.rerun or args.rerun_url:
+        raise ConfigError("--rerun applies to cam run, cam demo and cam monitor")
     cfg = config_from_args(args, args.task)
     out: Path = args.out
     if out.exists():

@@ -51,6 +51,10 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     p.add_argument("--runs", type=Path, default=Path("runs"), help="parent of the run directory (default runs/)")
     p.add_argument("--max-replans", type=int, default=30, help="failed subgoals allowed (default 30)")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
+    p.add_argument("--rerun", nargs="?", const="save", default=None, choices=("save", "spawn", "connect"),
+                   help="live 3-D view with rerun-sdk (the [rerun] extra): save run.rrd in the run dir (default), "
+                        "spawn a viewer, or connect to one (--rerun-url)")
+    p.add_argument("--rerun-url", default=None, help="viewer gRPC URL for --rerun connect (default: rerun's)")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -113,6 +117,7 @@ def execute(args: argparse.Namespace, cfg: Any) -> int:
     from code_as_monitor.core.run_io import new_run_dir
 
     # Every name is checked and the backend built (a missing API key found) before a run dir exists.
+    check_extras(args)
     backend = make_checked_backend(cfg)
     console = Console(highlight=False)
     run_dir = new_run_dir(args.runs, prefix=f"{cfg.task}-s{cfg.seed}")
@@ -124,12 +129,14 @@ def execute(args: argparse.Namespace, cfg: Any) -> int:
     hooks = extra_hooks(args, run_dir)
     try:
         with sigterm_as_interrupt():
-            summary = run_closed_loop(cfg, run_dir, on_event=None if args.quiet else log, backend=backend,
-                                      **hooks)
+            summary = run_closed_loop(cfg, run_dir, on_event=chain_events(None if args.quiet else log, hooks),
+                                      backend=backend, frame_hooks=hooks.frame_hooks)
     except BaseException as exc:  # summary.json is written; say how the run ended in one line
         outcome, reason = early_end(exc)
         print(f"cam {args.command}: {outcome}: {reason} (summary in {run_dir}/summary.json)", file=sys.stderr)
         return EXIT_CODES[outcome]
+    finally:
+        hooks.close()
     if summary["outcome"] == "error":
         print(f"cam {args.command}: error: {summary['error']} (summary in {run_dir}/summary.json)",
               file=sys.stderr)
@@ -140,9 +147,49 @@ def execute(args: argparse.Namespace, cfg: Any) -> int:
     return EXIT_CODES[summary["outcome"]]
 
 
-def extra_hooks(args: argparse.Namespace, run_dir: Path) -> dict[str, Any]:
-    """Keyword arguments of :func:`run_closed_loop` for the optional live view (``--rerun``)."""
-    return {}
+class Hooks:
+    """The optional live view's callbacks (``--rerun``): frame hooks, an event hook, and its closer."""
+
+    def __init__(self, logger: Any = None) -> None:
+        self.logger = logger
+        self.frame_hooks = [logger.on_frame] if logger is not None else []
+        self.on_event = logger.on_event if logger is not None else None
+
+    def close(self) -> None:
+        if self.logger is not None:
+            self.logger.close()
+
+
+def check_extras(args: argparse.Namespace) -> None:
+    """MissingExtraError (one line, exit 2) for an asked-for extra that is not installed, before any run dir."""
+    from code_as_monitor.core.extras import require
+
+    if getattr(args, "rerun", None):
+        require("rerun", "rerun")
+    elif getattr(args, "rerun_url", None):
+        raise ConfigError("--rerun-url applies to --rerun connect")
+
+
+def extra_hooks(args: argparse.Namespace, run_dir: Path) -> Hooks:
+    """The live view (``--rerun``) for a run writing to ``run_dir``."""
+    if not getattr(args, "rerun", None):
+        return Hooks()
+    from code_as_monitor.viz.rerun_log import RerunLogger
+
+    return Hooks(RerunLogger(args.rerun, path=run_dir / "run.rrd", url=args.rerun_url))
+
+
+def chain_events(first: Any, hooks: Hooks) -> Any:
+    """One ``on_event`` callback calling ``first`` (the live log) and the live view's, either may be None."""
+    calls = [f for f in (first, hooks.on_event) if f is not None]
+    if not calls:
+        return None
+
+    def on_event(ev: dict[str, Any]) -> None:
+        for f in calls:
+            f(ev)
+
+    return on_event
 
 
 def run(args: argparse.Namespace) -> int:
