@@ -18,11 +18,12 @@ class RunArtefacts:
     """The run directory's writers: events, video, prompts and programs (all optional without a dir)."""
 
     def __init__(self, run_dir: Path | None, video_hz: float | None, on_event: EventCallback | None) -> None:
-        from code_as_monitor.viz.video import VideoWriter
+        from code_as_monitor.viz.video import FrameComposer, VideoWriter
 
         self.run_dir = run_dir
         self.events = EventLog(run_dir / "events.jsonl") if run_dir is not None else None
         self.video = VideoWriter(run_dir / "episode.mp4", fps=video_hz) if (run_dir and video_hz) else None
+        self.compose = FrameComposer(fps=video_hz or 10.0)  # keeps verdict banners up for 1.5 s of video
         self.on_event = on_event
         self.frame_hooks: list[Callable[..., None]] = []
 
@@ -33,9 +34,7 @@ class RunArtefacts:
 
     def on_frame(self, obs: Any, elements: Any, stale: Any, verdicts: Any, banner: str) -> None:
         if self.video is not None:
-            from code_as_monitor.viz.video import compose_frame
-
-            self.video.write(compose_frame(obs, elements, stale, verdicts, banner))
+            self.video.write(self.compose(obs, elements, stale, verdicts, banner))
         for hook in self.frame_hooks:
             hook(obs, elements, stale, verdicts, banner)
 
@@ -53,6 +52,8 @@ class RunArtefacts:
 
     def close(self) -> None:
         if self.video is not None:
+            for frame in self.compose.tail():
+                self.video.write(frame)
             self.video.close()
         if self.events is not None:
             self.events.close()

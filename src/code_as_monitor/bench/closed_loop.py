@@ -22,7 +22,7 @@ from typing import Any
 
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
 from code_as_monitor.bench.artefacts import RunArtefacts
-from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.checks import check_count, check_positive, check_seed
 from code_as_monitor.core.run_io import write_json
 
 log = logging.getLogger(__name__)
@@ -64,12 +64,12 @@ class ClosedLoopConfig:
     deadline_s: float = 0.020
 
     def __post_init__(self) -> None:
-        if self.width < 32 or self.height < 32:
-            raise ConfigError(f"camera size must be at least 32x32, got {self.width}x{self.height}")
-        if self.camera_hz <= 0:
-            raise ConfigError(f"camera_hz must be > 0, got {self.camera_hz!r}")
-        if self.seed < 0:
-            raise ConfigError(f"seed must be >= 0, got {self.seed!r}")
+        check_seed("ClosedLoopConfig", self.seed)
+        check_count("ClosedLoopConfig", "width", self.width, 32)
+        check_count("ClosedLoopConfig", "height", self.height, 32)
+        check_positive("ClosedLoopConfig", "camera_hz", self.camera_hz)
+        check_count("ClosedLoopConfig", "max_replans", self.max_replans, 0)
+        check_positive("ClosedLoopConfig", "deadline_s", self.deadline_s)
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""

@@ -23,6 +23,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.cli import validate as v
 from code_as_monitor.cli.run_cmd import EXIT_CODES, add_monitor_options, backend_options_from_args
 from code_as_monitor.core.errors import ConfigError
 
@@ -34,7 +35,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("bag", type=Path, help="bag: a .mcap or .db3 file or a rosbag2 directory")
     p.add_argument("--instruction", default=None, help="the task instruction (default: the bag's, if recorded)")
-    p.add_argument("--topics", type=Path, default=None, help="topic map YAML (see docs/robot.md)")
+    p.add_argument("--topics", type=v.input_file, default=None, help="topic map YAML (see docs/robot.md)")
     p.add_argument("--objects", default=None, help="comma-separated scene object names (default: the map's)")
     p.add_argument("--rate", default="max", choices=("max", "realtime"),
                    help="hand frames over as fast as possible (default) or at the recorded pace")
