@@ -138,7 +138,7 @@ def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
         if args.cassette is None:
             raise ConfigError("--backend replay needs --cassette PATH")
         backend_options["cassette"] = str(args.cassette)
-    elif args.base_url or args.model:
+    elif args.backend != "openai" and (args.base_url or args.model):
         raise ConfigError(f"--base-url/--model apply to the openai backend, not {args.backend!r}")
     return backend_options
 
