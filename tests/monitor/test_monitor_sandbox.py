@@ -9,15 +9,12 @@ import time
 
 import numpy as np
 import pytest
-from conftest import wait_gone
 from hostile_programs import GOOD
+from hostutil import SLACK_S, wait_gone
 
 from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.core.errors import ProgramError, SandboxError
 from code_as_monitor.monitor.sandbox import Sandbox
-
-SLACK_S = 1.0
-"""Generous bound on the time past a deadline (a loaded 2-core machine): a containment check, not speed."""
 
 HISTORY = '''
 def check_a(E, H, t):
