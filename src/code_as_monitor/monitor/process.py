@@ -152,6 +152,8 @@ class WorkerProcess:
             elif self._start and self._end == len(buf):
                 buf[:avail] = buf[self._start:self._end]
                 self._start, self._end = 0, avail
+            if not avail:  # nothing buffered: the reply is not there yet, wait for it first
+                self._wait(_POLLIN, deadline)
             try:
                 n = self.sock.recv_into(self._view[self._end:])
             except BlockingIOError:
