@@ -37,6 +37,7 @@ class SparePool:
         self._starting = 0
         self._closed = False
         self._error: str | None = None
+        self._held = 0  # spares taken whose replacement waits for refill()
         self.registry: list[WorkerProcess] = []
         self._thread = threading.Thread(target=self._run, name="cam-sandbox-spawner", daemon=True)
         self._thread.start()
@@ -44,7 +45,7 @@ class SparePool:
     def _run(self) -> None:
         while True:
             with self._cond:
-                while not self._closed and (self._error or len(self._spares) + self._starting >= self.n):
+                while not self._closed and (self._error or len(self._spares) + self._starting + self._held >= self.n):
                     self._cond.wait()
                 if self._closed:
                     return
@@ -66,9 +67,11 @@ class SparePool:
                     self._error = err
                 self._cond.notify_all()
 
-    def take(self, timeout: float) -> WorkerProcess | None:
+    def take(self, timeout: float, refill: bool = True) -> WorkerProcess | None:
         """The oldest spare that has said ready, else the oldest one; waits up to ``timeout`` seconds for
-        one to exist (0: not at all) and returns None when none does. Its replacement starts at once.
+        one to exist (0: not at all) and returns None when none does. Its replacement starts at once, or
+        with ``refill=False`` at the next :meth:`refill` (so that it does not compete for the CPU with a
+        program being loaded).
 
         Raises:
             SandboxError: the spawner thread could not start a process (the next call tries again).
@@ -87,8 +90,16 @@ class SparePool:
             ready = [w for w in self._spares if w.ready]
             w = ready[0] if ready else self._spares[0]
             self._spares.remove(w)
+            if not refill:
+                self._held += 1
             self._cond.notify_all()
             return w
+
+    def refill(self) -> None:
+        """Start the replacements of the spares taken with ``refill=False``."""
+        with self._cond:
+            self._held = 0
+            self._cond.notify_all()
 
     def put_back(self, w: WorkerProcess) -> None:
         """Return an unused worker to the front of the pool."""

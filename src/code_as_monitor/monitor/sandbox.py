@@ -142,10 +142,10 @@ class Sandbox:
             self._pools.append(self._pool)
         return self._pool
 
-    def _take_spare(self, timeout: float) -> WorkerProcess | None:
+    def _take_spare(self, timeout: float, refill: bool = True) -> WorkerProcess | None:
         """A started spare (waiting up to ``timeout`` for one; None if there is none by then)."""
         self._collect()
-        return self._spare_pool().take(timeout)
+        return self._spare_pool().take(timeout, refill)
 
     def _retire(self, w: WorkerProcess | None) -> None:
         if w is not None:
@@ -186,10 +186,10 @@ class Sandbox:
         if self.confine and flags & _CONFINED != _CONFINED:
             log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
 
-    def _ready_worker(self, deadline: float) -> WorkerProcess:
+    def _ready_worker(self, deadline: float, refill: bool = True) -> WorkerProcess:
         """A spare that has said ready (started if need be), replacing ones that die on the way up."""
         while True:
-            w = self._take_spare(max(0.0, deadline - time.perf_counter()))
+            w = self._take_spare(max(0.0, deadline - time.perf_counter()), refill)
             if w is None:
                 raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
             try:
@@ -315,7 +315,15 @@ class Sandbox:
         validate_program(source, constraints)
         self._retire(self._active)
         self._active, self._program, self._constraints = None, None, []
-        w = self._ready_worker(t0 + self.start_timeout_s)
+        try:  # the next spare starts once this load is done, not competing with it
+            w = self._ready_worker(t0 + self.start_timeout_s, refill=False)
+            self._load_into(w, source, constraints, coverage)
+        finally:
+            if self._pool is not None:
+                self._pool.refill()
+        self.last_load_s = time.perf_counter() - t0
+
+    def _load_into(self, w: WorkerProcess, source: str, constraints: list[Constraint], coverage: bool) -> None:
         self._max_reply = protocol.max_result_bytes(len(constraints), 10_000 if coverage else 0)
         w.allow_reply(self._max_reply)
         try:
@@ -339,7 +347,6 @@ class Sandbox:
         self._constraints = list(constraints)
         self._reasons = [(b"\0", "")] * len(constraints)
         self.n_branches = w.n_branches
-        self.last_load_s = time.perf_counter() - t0
 
     # --- evaluation -------------------------------------------------------------------------------
     def _faults(self, reason: str, t: float) -> list[Verdict]:
