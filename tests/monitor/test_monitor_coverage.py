@@ -174,3 +174,34 @@ def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints)
     assert instrument(tree)[1] == instrument(validate_program(ELIF_AND_TERNARY, constraints))[1]
     with pytest.raises(ProgramError, match="__cam_cov__"):
         validate_program(GOOD.replace('"block attached"', '__cam_cov__(0, "x")'), constraints)
+
+
+ALWAYS_TRUE = _a('''
+d = distance(E[0], E[1])
+if d >= 0.0:
+    return True, f"attached ({d:.3f} m)"
+return False, "detached"
+''')
+
+NEVER_TRUE = '''
+def check_a(E, H, t):
+    return distance(E[0], E[1]) < 0.05, "attached"
+
+
+def check_b(E, H, t):
+    h = E[1][:, 2].mean()
+    return bool(h > 100.0), f"block at {h:.2f} m"
+'''
+
+
+def test_a_check_that_can_never_fail_or_never_hold_is_rejected(sandbox, constraints, scene):
+    with pytest.raises(CoverageError) as err:
+        _run(ALWAYS_TRUE, constraints, scene, sandbox)
+    report = err.value.report
+    assert report.outcomes["check_a"][1] == 0 and report.outcomes["check_a"][0] == report.n_inputs
+    assert "check_a: returned True on all" in str(err.value) and "never report a violation" in str(err.value)
+    assert "check_a, line 3: the 'if' condition is never false" in str(err.value)  # also listed
+    with pytest.raises(CoverageError) as err:
+        _run(NEVER_TRUE, constraints, scene, sandbox)
+    assert "check_b: returned False on all" in str(err.value) and "never be satisfied" in str(err.value)
+    assert "check_a" not in str(err.value).split("never changes")[1]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 
 import pytest
@@ -25,7 +26,7 @@ MODES = [
     ("garbage", "malformed reply"), ("pickle", "malformed reply"), ("wrong_seq", "malformed reply"),
     ("wrong_count", "malformed reply"), ("bad_flags", "malformed reply"), ("long_reason_field", "malformed reply"),
     ("trailing_bytes", "malformed reply"), ("marks_out_of_range", "malformed reply"),
-    ("close_socket", "died"), ("exit_code", "exit code 3"), ("segfault", "SIGSEGV"),
+    ("close_socket", "died"), ("exit_code", "died"), ("segfault", "died"),
 ]
 """Modes after which every check of the frame is a fault, with a word of the reason."""
 
@@ -59,11 +60,13 @@ def test_an_honest_evil_worker_is_a_worker(evil_box, constraints, scene):
 @pytest.mark.parametrize(("mode", "needle"), MODES, ids=[m for m, _ in MODES])
 def test_bad_reply_is_a_fault_for_the_frame(mode, needle, evil_box, constraints, scene):
     _load(evil_box, mode, constraints)
-    pid = evil_box.worker_pid
+    w = evil_box._active
     verdicts = _timed(evil_box, scene)
     assert all(v.fault and not v.ok and math.isnan(v.margin) for v in verdicts), verdicts
     assert needle in verdicts[0].reason, verdicts[0].reason
-    assert evil_box.worker_pid != pid  # killed and replaced
+    assert evil_box.worker_pid != w.pid  # killed and replaced
+    if mode in ("segfault", "exit_code"):  # the reason names them when the exit status came in time
+        assert w.proc.wait(timeout=10) == {"segfault": -signal.SIGSEGV, "exit_code": 3}[mode]
 
 
 @pytest.mark.parametrize("mode", ["nan_margin", "inf_margin"])

@@ -96,9 +96,26 @@ class SparePool:
             return w
 
     def refill(self) -> None:
-        """Start the replacements of the spares taken with ``refill=False``."""
+        """Start the replacements of the spares taken with ``refill=False``, here, in the caller's thread
+        (between subgoals, not while frames are evaluated: the spawner thread would compete with them
+        for the GIL)."""
+        with self._cond:
+            missing = self._held
+        made: list[WorkerProcess] = []
+        try:
+            for _ in range(missing):
+                made.append(self._make())
+        except OSError as exc:
+            with self._cond:
+                self._error = f"cannot start the sandbox worker: {exc}"
         with self._cond:
             self._held = 0
+            self.registry.extend(made)
+            if self._closed:
+                for w in made:
+                    w.kill()
+            else:
+                self._spares.extend(made)
             self._cond.notify_all()
 
     def put_back(self, w: WorkerProcess) -> None:

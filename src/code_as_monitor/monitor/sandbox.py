@@ -403,7 +403,8 @@ class Sandbox:
             self._replace(f"malformed reply: {exc}")
             return self._faults(f"monitor worker gave a malformed reply ({exc})", t)
         except (EOFError, OSError) as exc:
-            how = w.how_it_ended(wait_s=0.005)  # a worker that closed its socket is usually exiting
+            # a worker that closed its socket is exiting: its exit status, if it comes within the deadline
+            how = w.how_it_ended(wait_s=max(0.002, deadline - time.perf_counter()))
             self._replace(f"worker died ({how})")
             return self._faults(f"monitor worker died ({how}; {type(exc).__name__})", t)
         self.last_marks = marks
