@@ -67,6 +67,7 @@ def test_hostile_program_is_rejected_or_contained(name, source, kind, needle, bo
     E, H, Ht = frame
     before_e, before_h, before_t = snapshot(E), snapshot(H), Ht.copy()
     rss0 = rss_bytes()
+    others = set(live_children()) - box.all_pids  # children of this process that are not this sandbox's
     if kind == "rejected":
         with pytest.raises(ProgramError) as err:
             validate_program(source, constraints)
@@ -105,7 +106,9 @@ def test_hostile_program_is_rejected_or_contained(name, source, kind, needle, bo
     # the host after the attack
     assert same(E, before_e) and same(H, before_h) and np.array_equal(Ht, before_t)
     assert rss_bytes() - rss0 < RSS_GROWTH_LIMIT
-    assert len(live_children()) <= box.n_spares + 2  # the running worker, spares, one being killed
+    ours = set(live_children()) - others
+    assert ours <= box.all_pids, (ours, box.all_pids)  # no worker the sandbox lost track of
+    assert len(ours) <= box.n_spares + 2  # the running worker, the spares, one being killed
     assert not os.path.exists(CANARY)
     out, err = capfd.readouterr()
     assert out == "" and err == "", (out, err)

@@ -264,6 +264,13 @@ class Sandbox:
         return self._active.pid if self._active is not None and not self._active.dead else None
 
     @property
+    def all_pids(self) -> set[int]:
+        """Process ids of every worker this sandbox holds: the active one, the spares, and killed ones not
+        yet collected."""
+        workers = [self._active, *self._dying, *(self._pool.registry if self._pool is not None else ())]
+        return {w.pid for w in workers if w is not None}
+
+    @property
     def confinement(self) -> str:
         """What confines the current (or next) worker, in words; "unknown" before one said ready."""
         for w in (self._active, *(self._pool.registry if self._pool is not None else ())):
