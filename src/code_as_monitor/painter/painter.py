@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import CamError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.painter.draw import draw_elements
+
+if TYPE_CHECKING:
+    from code_as_monitor.geometry.solid import SupportPlane
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +82,15 @@ class Painter:
     def __init__(self, segmenter: object, min_pixels: int = 12) -> None:
         self.segmenter = segmenter
         self.min_pixels = min_pixels
+        self._plane: tuple[int, SupportPlane | None] | None = None
+
+    def _support(self, obs: Observation) -> SupportPlane | None:
+        """The scene's support plane (the table) from this observation's depth, computed once per observation."""
+        from code_as_monitor.geometry.solid import support_plane
+
+        if self._plane is None or self._plane[0] != id(obs):
+            self._plane = (id(obs), support_plane([(v.depth, v.camera) for v in obs.views.values()]))
+        return self._plane[1]
 
     def build_element(
         self, obs: Observation, element_id: int, spec: ElementSpec, constraint_text: str = ""
@@ -108,12 +121,15 @@ class Painter:
             if spec.part and res.part_mask.sum() < self.min_pixels and res.instance_mask.sum() >= self.min_pixels:
                 log.debug("part %s/%s not segmented in %s; using the whole object", spec.obj, spec.part,
                           view.camera.name)
-            if mask.sum() >= self.min_pixels:
-                per_view.append((mask, view.depth, view.camera))
-        if not per_view:
+            if mask.sum() < self.min_pixels:
+                mask = np.zeros_like(mask, dtype=bool)  # adds no points, but its depth still carves free space
+            per_view.append((mask, view.depth, view.camera))
+        if not any(m.any() for m, _, _ in per_view):
             return None
         try:
-            el = build_element(element_id, spec, per_view)
+            el = build_element(element_id, spec, per_view, support=self._support(obs))
+            if spec.part and not part_seen and el.support is not None:
+                el.support = replace(el.support, part_seen=False)
             if not spec.part:
                 el.object_cloud = el.cloud
             elif whole:
