@@ -34,7 +34,7 @@ import numpy as np
 from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError
-from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH
+from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
 from code_as_monitor.geometry.fusion import voxel_downsample
 from code_as_monitor.geometry.part_cloud import (
     MIN_FINE_VOXEL,
@@ -42,14 +42,15 @@ from code_as_monitor.geometry.part_cloud import (
     cap_cloud,
     dense_clusters,
     fine_voxel_size,
+    fuse_part,
     mask_cloud,
     part_cloud,
-    part_cloud_views,
 )
 from code_as_monitor.geometry.solid import Box, CarveView, SupportPlane, carve, fit_box
 
 __all__ = [
-    "MIN_FINE_VOXEL", "VOXEL_DIVISIONS", "Observation3D", "build_element", "cap_cloud", "ee_element",
+    "MIN_FINE_VOXEL", "VOXEL_DIVISIONS", "Observation3D", "build_element", "build_element_from_clouds", "cap_cloud",
+    "ee_element",
     "element_points", "element_voxel_size", "fine_voxel_size", "fit_element_points", "mask_cloud", "part_cloud",
 ]
 
@@ -192,9 +193,24 @@ def build_element(
     Raises:
         ShapeMismatchError, NoValidDepthError, ElementError (degenerate geometry for the kind).
     """
-    P, vs, nviews = part_cloud_views(observations, max_depth, k, std_ratio, f"element {spec.name!r}")
-    Q = dense_clusters(P, vs)
+    clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
     views = [CarveView(np.asarray(m, dtype=bool), d, cam) for m, d, cam in observations]
+    return build_element_from_clouds(id, spec, clouds, views, support, k, std_ratio)
+
+
+def build_element_from_clouds(
+    id: int,
+    spec: ElementSpec,
+    clouds: Sequence[np.ndarray],
+    views: Sequence[CarveView],
+    support: SupportPlane | None = None,
+    k: int = 16,
+    std_ratio: float = 2.0,
+) -> Element:
+    """:func:`build_element` from the part's points already lifted per view (``clouds``: (N_i, 3) world
+    metres, one per view, in the order of ``views``, whose masks are the part's)."""
+    P, vs, nviews = fuse_part(clouds, [v.camera.name for v in views], k, std_ratio, f"element {spec.name!r}")
+    Q = dense_clusters(P, vs)
     try:
         pts, box = fit_part(Q, vs, spec.kind, views, support)
     except ElementError as exc:

@@ -6,7 +6,7 @@ Pipeline (all clouds (N, 3), world frame, metres):
 2. voxel-downsample on a fine grid (:func:`fine_voxel_size`: 4 mm, coarser for big parts) so that every later
    stage sees an evenly spread cloud of bounded size, whatever the image resolution;
 3. statistical outlier removal (:func:`~.fusion.remove_outliers`);
-4. DBSCAN (:func:`dense_clusters`) drops the sparse points that survived and splits off debris.
+4. the connected clusters of the occupancy grid (:func:`dense_clusters`) split off debris.
 """
 
 from __future__ import annotations
@@ -19,14 +19,12 @@ from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS
 from code_as_monitor.core.errors import GeometryError, NoValidDepthError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample, voxel_keys
+from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample
 
 MIN_FINE_VOXEL = 0.004
 """Metres: the finest voxel of the downsampling grid."""
 FINE_VOXELS_ACROSS = 100
 """The fine voxel is at least the part's robust extent divided by this (bounds the cloud size)."""
-DBSCAN_MAX_POINTS = 1500
-"""DBSCAN runs on a grid coarse enough to hold about this many points (it dominates the cost)."""
 
 Observation3D = tuple[np.ndarray, np.ndarray, CameraModel]
 """``(mask (H, W) bool, depth (H, W) metres, camera)``: one view of one part."""
@@ -41,32 +39,33 @@ def fine_voxel_size(points: np.ndarray) -> float:
 
 
 def dense_clusters(Q: np.ndarray, voxel: float, min_cluster_frac: float = 0.1) -> np.ndarray:
-    """Rows of ``Q`` (M, 3) kept by DBSCAN: every cluster at least ``min_cluster_frac`` of the largest.
+    """Rows of ``Q`` (M, 3) in its dense clusters: every connected cluster at least ``min_cluster_frac`` of the
+    largest (debris and stray fragments of a mask drop out).
 
-    DBSCAN runs on at most about :data:`DBSCAN_MAX_POINTS` voxel centres: ``Q`` is re-gridded with a
-    voxel ``g >= voxel`` chosen for that, and each row of ``Q`` takes its voxel's label. ``eps`` is
-    2.5 voxels ``g`` (a surface voxel has ~20 neighbours within it), ``min_samples`` 4. Returns all
-    of ``Q`` when DBSCAN finds no cluster (a tiny cloud).
+    Clusters are the 26-connected components of the occupancy grid of voxel ``2 * voxel`` (points less than
+    about two to four fine voxels apart are connected; the grid is coarsened further for very long clouds so
+    that it holds at most about 2e6 cells). Returns all of ``Q`` when it has fewer than 8 rows.
     """
     if len(Q) < 8:
         return Q
-    from sklearn.cluster import DBSCAN
+    from scipy import ndimage
 
-    g = voxel * max(1.0, float(np.sqrt(len(Q) / DBSCAN_MAX_POINTS)))  # surfaces: count ~ 1 / g^2
-    if g > voxel:
-        _, inv = np.unique(voxel_keys(Q, g), return_inverse=True)
-        inv = inv.reshape(-1)
-        counts = np.bincount(inv)
-        C = np.stack([np.bincount(inv, weights=Q[:, i]) for i in range(3)], axis=1) / counts[:, None]
-    else:
-        inv, C = np.arange(len(Q)), Q
-    labels = DBSCAN(eps=2.5 * g, min_samples=4).fit_predict(C)[inv]
-    good = labels >= 0
-    if not good.any():
+    g = 2.0 * voxel
+    lo = Q.min(axis=0)
+    span = Q.max(axis=0) - lo
+    while np.prod(np.floor(span / g) + 1) > 2e6:
+        g *= 1.5
+    ijk = np.floor((Q - lo) / g).astype(np.int64)
+    occ = np.zeros(tuple(ijk.max(axis=0) + 1), dtype=bool)
+    occ[ijk[:, 0], ijk[:, 1], ijk[:, 2]] = True
+    lab, n = ndimage.label(occ, structure=np.ones((3, 3, 3), dtype=bool))
+    if n <= 1:
         return Q
-    sizes = np.bincount(labels[good])
-    keep = np.flatnonzero(sizes >= min_cluster_frac * sizes.max())
-    return Q[np.isin(labels, keep)]
+    labels = lab[ijk[:, 0], ijk[:, 1], ijk[:, 2]]
+    sizes = np.bincount(labels)
+    sizes[0] = 0
+    keep = sizes >= min_cluster_frac * sizes.max()
+    return Q[keep[labels]]
 
 
 def part_cloud(

@@ -42,7 +42,7 @@ FACE_SPIKE = 0.12
 """An end of an axis is a seen face when at least this fraction of the points lie on its plane."""
 MIN_SECOND_FACE = 0.06
 """The second axis comes from a perpendicular plane only when that plane holds this fraction of the points."""
-CARVE_GRID = 5
+CARVE_GRID = 4
 """Samples per side of a slab (a CARVE_GRID x CARVE_GRID grid over the central part of the face)."""
 CARVE_INSET = 0.1
 """Fraction of each face dimension left out at its borders when sampling a slab."""
@@ -57,7 +57,7 @@ SHELL = 0.01
 """Metres: a sample less than this behind another surface is taken to be inside that object."""
 FINE_STEP = 0.001
 """Metres: the slab step of the final search (the growth is within this of the first blocked slab)."""
-COARSE_SLABS = 40
+COARSE_SLABS = 16
 """The first search divides the growth limit into at most this many slabs (at least ``FINE_STEP`` thick)."""
 GROW_LIMIT = 2.0
 """A side grows at most this many times the part's largest observed extent; one that gets there unbounded is
@@ -188,21 +188,20 @@ def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,
     return frames[int(np.argmin(scores))]
 
 
-def _end(s: np.ndarray, q: float, tol: float) -> float:
-    """One end of the coordinates ``s`` (N,): the ``q`` percentile, or the median of a face spike there."""
-    e = float(np.percentile(s, q))
-    near = np.abs(s - e) <= tol
-    if near.mean() >= FACE_SPIKE:
-        return float(np.median(s[near]))
-    return e
-
-
 def _observed_box(P: np.ndarray, axes: np.ndarray, noise: float, tol: float = 0.002) -> Box:
-    s = P @ axes.T
+    """The box along ``axes`` spanning the points ``P`` (N, 3): per axis end, the 1st / 99th percentile, or the
+    median of the points within ``max(tol, 2 noise)`` of it when they are a face spike (at least FACE_SPIKE)."""
+    s = np.sort(P @ axes.T, axis=0)  # (N, 3)
+    n = len(s)
     ftol = max(tol, 2.0 * noise)
-    lo = np.array([_end(s[:, i], 1.0, ftol) for i in range(3)])
-    hi = np.array([_end(s[:, i], 99.0, ftol) for i in range(3)])
-    return Box(axes, np.minimum(lo, hi), np.maximum(lo, hi), noise)
+    ends = np.empty((2, 3))
+    for row, q in ((0, 0.01), (1, 0.99)):
+        e = s[round(q * (n - 1))]
+        for a in range(3):
+            col = s[:, a]
+            i0, i1 = np.searchsorted(col, [e[a] - ftol, e[a] + ftol])
+            ends[row, a] = col[i0 + (i1 - i0) // 2] if (i1 - i0) >= FACE_SPIKE * n else e[a]
+    return Box(axes, ends.min(axis=0), ends.max(axis=0), noise)
 
 
 def plane_noise(P: np.ndarray, tol: float, rng: np.random.Generator | None = None) -> float:
@@ -246,18 +245,23 @@ class CarveView:
     camera: CameraModel
 
 
+_UNIT_GRIDS: dict[int, np.ndarray] = {}
+
+
 def _face_samples(box: Box, axis: int, n: int, inset: float, margin: float = 0.0) -> np.ndarray:
     """(n*n, 3) coordinates (along the box axes) of a grid over the central part of the face at ``axis``'s hi
     end, ``inset`` (fraction) and at least ``margin`` metres in from its borders, never past its middle; the
     caller moves them along ``axis``."""
-    j, k = [a for a in range(3) if a != axis]
-    ins = [min(0.5, max(inset, margin / max(box.hi[a] - box.lo[a], 1e-9))) for a in (j, k)]
-    tj, tk = (np.linspace(i, 1.0 - i, n) for i in ins)
-    u = box.lo[j] + tj * (box.hi[j] - box.lo[j])
-    v = box.lo[k] + tk * (box.hi[k] - box.lo[k])
-    U, V = np.meshgrid(u, v)
+    j, k = (1, 2) if axis == 0 else (0, 2) if axis == 1 else (0, 1)
+    ext = box.hi - box.lo
+    g = _UNIT_GRIDS.get(n)
+    if g is None:
+        t = np.linspace(-0.5, 0.5, n)
+        g = _UNIT_GRIDS[n] = np.stack(np.meshgrid(t, t), -1).reshape(-1, 2)
     S = np.zeros((n * n, 3))
-    S[:, j], S[:, k] = U.ravel(), V.ravel()
+    for col, a in ((0, j), (1, k)):
+        keep = 1.0 - 2.0 * min(0.5, max(inset, margin / max(ext[a], 1e-9)))  # the central fraction sampled
+        S[:, a] = (box.lo[a] + box.hi[a]) / 2.0 + g[:, col] * keep * ext[a]
     return S
 
 
@@ -350,10 +354,13 @@ def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
     its image, without a depth reading, behind (or within ``tol`` of) the part's own surface, or more than
     ``SHELL`` behind a surface of something else."""
     cam = view.camera
-    uv, z = cam.project(W)
+    R, t = cam.T_world_cam[:3, :3], cam.T_world_cam[:3, 3]
+    pc = (W - t) @ R  # camera frame
+    z = pc[:, 2]
     H, Wd = view.depth.shape
-    u = np.rint(uv[:, 0])
-    vv = np.rint(uv[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.rint(cam.K[0, 0] * pc[:, 0] / z + cam.K[0, 1] * pc[:, 1] / z + cam.K[0, 2])
+        vv = np.rint(cam.K[1, 1] * pc[:, 1] / z + cam.K[1, 2])
     inside = (z > 1e-6) & np.isfinite(u) & np.isfinite(vv) & (u >= 0) & (u < Wd) & (vv >= 0) & (vv < H)
     ok = np.ones(len(W), dtype=bool)
     idx = np.flatnonzero(inside)
