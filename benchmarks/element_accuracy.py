@@ -39,7 +39,7 @@ from code_as_monitor.bench.element_truth import PartTruth, element_errors, part_
 from code_as_monitor.core import Constraint, ElementSpec, Observation, Phase, Subgoal, View
 from code_as_monitor.painter import Painter
 from code_as_monitor.perception import SegmenterConfig, make_segmenter
-from code_as_monitor.sim.cameras import CameraSpec, SimCamera, default_cameras
+from code_as_monitor.sim.cameras import CameraSpec, SimCamera
 from code_as_monitor.sim.env import make_env
 from code_as_monitor.sim.tasks.base import task_names
 

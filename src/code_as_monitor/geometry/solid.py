@@ -55,6 +55,8 @@ MIN_TOL = 0.003
 """Metres: the least depth tolerance for "on a surface" (the rendered depth's own precision is far finer)."""
 SHELL = 0.01
 """Metres: a sample less than this behind another surface is taken to be inside that object."""
+RANSAC_SCORE_POINTS = 400
+"""RANSAC scores its plane hypotheses on at most this many points of the cloud (the refit uses them all)."""
 FINE_STEP = 0.001
 """Metres: the slab step of the final search (the growth is within this of the first blocked slab)."""
 COARSE_SLABS = 16
@@ -113,11 +115,12 @@ def _plane_ransac(P: np.ndarray, tol: float, iters: int, rng: np.random.Generato
     if not ok.any():
         return np.array([0.0, 0.0, 1.0]), np.zeros(n_pts, dtype=bool)
     N, A = N[ok] / norm[ok, None], A[ok]
-    dist = np.abs(P @ N.T - np.sum(N * A, axis=1))  # (N, iters)
-    counts = (dist <= tol).sum(axis=0)
+    # hypotheses are scored on at most RANSAC_SCORE_POINTS evenly spread points
+    Ps = P if n_pts <= RANSAC_SCORE_POINTS else P[np.linspace(0, n_pts - 1, RANSAC_SCORE_POINTS).astype(np.int64)]
+    counts = (np.abs(Ps @ N.T - np.sum(N * A, axis=1)) <= tol).sum(axis=0)
     best = int(np.argmax(counts))
-    inl = dist[:, best] <= tol
     n = N[best]
+    inl = np.abs((P - A[best]) @ n) <= tol
     # least-squares refinement on the inliers (keeping the perpendicularity)
     X = P[inl] - P[inl].mean(axis=0)
     if perpendicular_to is not None:
@@ -164,18 +167,19 @@ def _second_axis(P: np.ndarray, a1: np.ndarray, inl: np.ndarray, tol: float, rng
 
 
 def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,
-             candidates: Sequence[np.ndarray] = (), noise: float = 0.0) -> np.ndarray:
+             candidates: Sequence[np.ndarray] = (), noise: float = 0.0,
+             first: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Axes (3, 3) rows of the box that best explains the cloud ``P`` (N, 3).
 
     The first axis is the normal of the largest plane (RANSAC, inlier distance ``tol`` metres) or one of
     ``candidates`` (unit directions, e.g. the support plane's normal: most parts rest on a face); each candidate
     is completed by :func:`_second_axis`, and the frame whose box leaves the smallest RMS distance from the
-    points to its surface wins.
+    points to its surface wins. ``first`` is the largest plane ``(normal, inliers)`` when already found.
     """
     rng = rng or np.random.default_rng(0)
     if len(P) < 6:
         return np.eye(3)
-    a1, inl = _plane_ransac(P, tol, 64, rng)
+    a1, inl = first if first is not None else _plane_ransac(P, tol, 64, rng)
     frames = [] if inl.sum() < 3 else [_second_axis(P, a1, inl, tol, rng)]
     for c in candidates:
         c = np.asarray(c, dtype=np.float64) / np.linalg.norm(c)
@@ -204,12 +208,8 @@ def _observed_box(P: np.ndarray, axes: np.ndarray, noise: float, tol: float = 0.
     return Box(axes, ends.min(axis=0), ends.max(axis=0), noise)
 
 
-def plane_noise(P: np.ndarray, tol: float, rng: np.random.Generator | None = None) -> float:
-    """Depth noise estimate (metres): 1.4826 x the median absolute residual of the largest plane's inliers."""
-    rng = rng or np.random.default_rng(0)
-    if len(P) < 6:
-        return 0.0
-    n, inl = _plane_ransac(P, tol, 64, rng)
+def _mad_noise(P: np.ndarray, n: np.ndarray, inl: np.ndarray) -> float:
+    """1.4826 x the median absolute residual (metres) of the inliers ``inl`` of the plane with normal ``n``."""
     if inl.sum() < 3:
         return 0.0
     r = P[inl] @ n
@@ -229,10 +229,15 @@ def fit_box(P: np.ndarray, voxel: float, rng: np.random.Generator | None = None,
     """
     P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
     rng = rng or np.random.default_rng(0)
-    if noise is None:
-        noise = plane_noise(P, max(voxel / 2.0, 0.002), rng)
+    first = None
+    if noise is None:  # from the cloud's largest plane, which is then also the first axis's candidate
+        tol = max(voxel / 2.0, 0.002)
+        first = _plane_ransac(P, tol, 64, rng) if len(P) >= 6 else None
+        noise = 0.0 if first is None else _mad_noise(P, *first)
     tol = max(voxel / 2.0, 0.002, 2.5 * noise)
-    axes = box_axes(P, tol, rng, () if up is None else (up,), noise)
+    if first is not None and tol > max(voxel / 2.0, 0.002):
+        first = None  # noisy: search again with the wider tolerance
+    axes = box_axes(P, tol, rng, () if up is None else (up,), noise, first)
     return _observed_box(P, axes, noise, tol)
 
 
