@@ -173,8 +173,6 @@ def build_element(
     spec: ElementSpec,
     observations: Sequence[Observation3D],
     max_depth: float = DEFAULT_MAX_DEPTH,
-    k: int = 16,
-    std_ratio: float = 2.0,
     support: SupportPlane | None = None,
 ) -> Element:
     """Build the element ``spec`` from its masks in one or more views.
@@ -185,7 +183,6 @@ def build_element(
         observations: ``(mask (H, W) bool, depth (H, W) metres, camera)`` per view; a view where the
             part is not visible (empty mask or no valid depth) adds no points but still carves free space.
         max_depth: metres; depth beyond is missing.
-        k, std_ratio: statistical outlier removal parameters.
         support: optional support plane (:func:`~.solid.support_plane`): the part's hidden sides never grow
             below it; its normal is tried as a box axis and its noise estimate sets the tolerances.
     Returns:
@@ -195,7 +192,7 @@ def build_element(
     """
     clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
     views = [CarveView(np.asarray(m, dtype=bool), d, cam) for m, d, cam in observations]
-    return build_element_from_clouds(id, spec, clouds, views, support, k, std_ratio)
+    return build_element_from_clouds(id, spec, clouds, views, support)
 
 
 def build_element_from_clouds(
@@ -204,12 +201,10 @@ def build_element_from_clouds(
     clouds: Sequence[np.ndarray],
     views: Sequence[CarveView],
     support: SupportPlane | None = None,
-    k: int = 16,
-    std_ratio: float = 2.0,
 ) -> Element:
     """:func:`build_element` from the part's points already lifted per view (``clouds``: (N_i, 3) world
     metres, one per view, in the order of ``views``, whose masks are the part's)."""
-    P, vs, nviews = fuse_part(clouds, [v.camera.name for v in views], k, std_ratio, f"element {spec.name!r}")
+    P, vs, nviews = fuse_part(clouds, [v.camera.name for v in views], f"element {spec.name!r}")
     Q = dense_clusters(P, vs)
     try:
         pts, box = fit_part(Q, vs, spec.kind, views, support)

@@ -5,7 +5,7 @@ Pipeline (all clouds (N, 3), world frame, metres):
 1. back-project every view's mask with its depth (:func:`~.backproject.backproject_mask`) and fuse;
 2. voxel-downsample on a fine grid (:func:`fine_voxel_size`: 4 mm, coarser for big parts) so that every later
    stage sees an evenly spread cloud of bounded size, whatever the image resolution;
-3. statistical outlier removal (:func:`~.fusion.remove_outliers`);
+3. isolated points dropped (:func:`~.fusion.remove_isolated`: fewer than 3 others within 2.5 voxels);
 4. the connected clusters of the occupancy grid (:func:`dense_clusters`) split off debris.
 """
 
@@ -19,7 +19,7 @@ from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS
 from code_as_monitor.core.errors import GeometryError, NoValidDepthError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample
+from code_as_monitor.geometry.fusion import fuse_points, remove_isolated, voxel_downsample
 
 MIN_FINE_VOXEL = 0.004
 """Metres: the finest voxel of the downsampling grid."""
@@ -71,31 +71,28 @@ def dense_clusters(Q: np.ndarray, voxel: float, min_cluster_frac: float = 0.1) -
 def part_cloud(
     observations: Sequence[Observation3D],
     max_depth: float = DEFAULT_MAX_DEPTH,
-    k: int = 16,
-    std_ratio: float = 2.0,
     name: str = "part",
 ) -> tuple[np.ndarray, float]:
-    """Fused, downsampled, outlier-filtered cloud (M, 3) of one part over its views, and the voxel used.
+    """Fused, downsampled, filtered cloud (M, 3) of one part over its views, and the voxel used.
 
     Raises:
         ShapeMismatchError: a mask, depth and camera disagree in size.
         NoValidDepthError: no view has a mask pixel with a valid depth.
     """
-    Q, vs, _ = part_cloud_views(observations, max_depth, k, std_ratio, name)
+    Q, vs, _ = part_cloud_views(observations, max_depth, name)
     return Q, vs
 
 
 def part_cloud_views(
-    observations: Sequence[Observation3D], max_depth: float = DEFAULT_MAX_DEPTH, k: int = 16,
-    std_ratio: float = 2.0, name: str = "part",
+    observations: Sequence[Observation3D], max_depth: float = DEFAULT_MAX_DEPTH, name: str = "part",
 ) -> tuple[np.ndarray, float, int]:
     """:func:`part_cloud` plus the number of views that gave at least one valid point."""
     clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
-    return fuse_part(clouds, [cam.name for _, _, cam in observations], k, std_ratio, name)
+    return fuse_part(clouds, [cam.name for _, _, cam in observations], name)
 
 
-def fuse_part(clouds: Sequence[np.ndarray], view_names: Sequence[str], k: int = 16, std_ratio: float = 2.0,
-              name: str = "part") -> tuple[np.ndarray, float, int]:
+def fuse_part(clouds: Sequence[np.ndarray], view_names: Sequence[str], name: str = "part"
+              ) -> tuple[np.ndarray, float, int]:
     """Fuse per-view world clouds (N_i, 3) of one part: (cloud (M, 3), voxel metres, views that gave points).
 
     Raises:
@@ -107,7 +104,7 @@ def fuse_part(clouds: Sequence[np.ndarray], view_names: Sequence[str], k: int = 
         raise NoValidDepthError(f"{name}: no mask pixel with a valid depth in any view ({names})")
     vs = fine_voxel_size(P)
     Q, _ = voxel_downsample(P, vs)
-    return remove_outliers(Q, k=k, std_ratio=std_ratio), vs, sum(len(c) > 0 for c in clouds)
+    return remove_isolated(Q, 2.5 * vs, 3), vs, sum(len(c) > 0 for c in clouds)
 
 
 def cap_cloud(points: np.ndarray, max_points: int = MAX_CLOUD_POINTS, voxel: float = MIN_FINE_VOXEL) -> np.ndarray:
@@ -136,7 +133,7 @@ def mask_cloud(
         ShapeMismatchError: a mask, depth and camera disagree in size.
     """
     try:
-        Q, vs, _ = part_cloud_views(observations, max_depth, 16, 2.0, "cloud")
+        Q, vs, _ = part_cloud_views(observations, max_depth, "cloud")
     except NoValidDepthError:
         return np.empty((0, 3))
     return cap_cloud(Q, max_points, vs)

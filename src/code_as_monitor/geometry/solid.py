@@ -16,9 +16,10 @@ what the masks and depth give:
 3. **Hidden sides** (:func:`carve`): a side no view sees past may extend further than the points show (the
    back of a block seen only from the front; a block under another one; a book inside a shelf). Each side is
    pushed outwards slab by slab while the slab stays hidden in every view: in each view the depth there
-   reads something in front of it, and not just in front of it (a sample less than ``shell`` behind another
-   surface would be inside that object), and the slab is not below the support plane (the table). A slab any
-   view sees through (the depth reads further), or a slab on a seen surface, stops it. A side that grows
+   reads the part itself in front of it, or another object well in front of it (a sample less than
+   :data:`SHELL` behind another object's surface would be inside that object), never one of the object's
+   other parts (a part ends where its siblings begin), and the slab is not below the support plane (the
+   table). A slab any view sees through (the depth reads further), or one on a seen surface, stops it. A side that grows
    unbounded to :data:`GROW_LIMIT` times the part's largest observed extent is hidden from every view (one
    face seen alone); the part is then taken to be as deep along that axis as the smaller of its other two
    extents, the one assumption made, and the support record counts such sides.
@@ -44,7 +45,7 @@ MIN_SECOND_FACE = 0.06
 """The second axis comes from a perpendicular plane only when that plane holds this fraction of the points."""
 CARVE_GRID = 4
 """Samples per side of a slab (a CARVE_GRID x CARVE_GRID grid over the central part of the face)."""
-CARVE_INSET = 0.1
+CARVE_INSET = 0.02
 """Fraction of each face dimension left out at its borders when sampling a slab."""
 PIXEL_MARGIN = 1.5
 """Pixels (of the coarsest view at the part) left out at a face's borders too: a mask's silhouette is only
@@ -243,11 +244,13 @@ def fit_box(P: np.ndarray, voxel: float, rng: np.random.Generator | None = None,
 
 @dataclass(frozen=True)
 class CarveView:
-    """One view for carving: ``mask`` (H, W) bool of the part, ``depth`` (H, W) metres, ``camera``."""
+    """One view for carving: ``mask`` (H, W) bool of the part, ``depth`` (H, W) metres, ``camera``, and
+    optionally ``siblings`` (H, W) bool, the same object's other parts (a part never grows behind them)."""
 
     mask: np.ndarray
     depth: np.ndarray
     camera: CameraModel
+    siblings: np.ndarray | None = None
 
 
 _UNIT_GRIDS: dict[int, np.ndarray] = {}
@@ -357,7 +360,7 @@ def _pixel_size(camera: CameraModel, p: np.ndarray) -> float:
 def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
     """(N,) True where world points ``W`` (N, 3) may belong to the part as far as ``view`` can tell: outside
     its image, without a depth reading, behind (or within ``tol`` of) the part's own surface, or more than
-    ``SHELL`` behind a surface of something else."""
+    ``SHELL`` behind a surface of another object (not a sibling part of its own object)."""
     cam = view.camera
     R, t = cam.T_world_cam[:3, :3], cam.T_world_cam[:3, 3]
     pc = (W - t) @ R  # camera frame
@@ -377,8 +380,11 @@ def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
     valid = np.isfinite(D) & (D > 0)
     own = view.mask[vi, ui]
     # the part's own surface at or in front of the sample: it may be inside; another surface: only when the
-    # sample lies more than SHELL behind it (closer, it would be inside that other thing)
+    # sample lies more than SHELL behind it (closer, it would be inside that other thing); a sibling part's
+    # surface: never (the object's other parts are where the part ends)
     ok[idx] = ~valid | np.where(own, zi + tol >= D, zi - max(SHELL, tol) > D)
+    if view.siblings is not None:
+        ok[idx] &= ~view.siblings[vi, ui]
     return ok
 
 

@@ -137,12 +137,12 @@ class Painter:
         from code_as_monitor.geometry.backproject import lift_depth
 
         out = []
-        for view in obs.views.values():
-            try:
-                pm, ok = lift_depth(view.depth, view.camera)
-            except CamError as exc:
-                log.warning("view %r skipped: %s", getattr(view.camera, "name", "?"), exc)
+        for name, view in obs.views.items():
+            bad = unusable(view)
+            if bad:
+                log.warning("view %r skipped: %s", name, bad)
                 continue
+            pm, ok = lift_depth(view.depth, view.camera)
             many = getattr(self.segmenter, "segment_many", None)
             if many is not None:
                 res = many(view, specs, texts)
@@ -167,7 +167,8 @@ class Painter:
             if (pc if mask is res.part_mask else ic) < self.min_pixels:
                 mask = np.zeros(ok.shape, dtype=bool)  # adds no points, but its depth still carves free space
             clouds.append(pm[mask & ok])
-            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera))
+            siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
+            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings))
         if not any(len(c) for c in clouds):
             return None
         try:
@@ -208,8 +209,29 @@ class Painter:
     def draw(
         obs: Observation, elements: list[Element], stale: dict[int, np.ndarray] | None = None
     ) -> dict[str, np.ndarray]:
-        """Annotated copies of every view's RGB."""
-        return {name: draw_elements(v.rgb, v.camera, elements, stale) for name, v in obs.views.items()}
+        """Annotated copies of every view's RGB (a plain copy for a view whose camera cannot project)."""
+        return {name: v.rgb.copy() if unusable(v) else draw_elements(v.rgb, v.camera, elements, stale)
+                for name, v in obs.views.items()}
+
+
+def unusable(view: object) -> str:
+    """Why a view cannot be lifted or drawn (its camera's intrinsics or pose are invalid, or its depth does not
+    match the camera), naming the bad value; "" when it can."""
+    from code_as_monitor.core.camera import validate_intrinsics, validate_rigid
+    from code_as_monitor.geometry.backproject import check_depth
+
+    cam = getattr(view, "camera", None)
+    try:
+        if cam is None:
+            return "the view has no camera"
+        validate_intrinsics(getattr(cam, "K", None))
+        validate_rigid(getattr(cam, "T_world_cam", None), f"camera {getattr(cam, 'name', '?')!r} T_world_cam")
+        check_depth(getattr(view, "depth", None), cam)
+    except CamError as exc:
+        return str(exc)
+    except (TypeError, ValueError) as exc:  # a value numpy cannot even read as an array
+        return f"camera {getattr(cam, 'name', '?')!r}: {exc}"
+    return ""
 
 
 def require_all(result: PaintResult) -> None:
