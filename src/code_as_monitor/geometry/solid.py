@@ -47,7 +47,7 @@ CARVE_GRID = 4
 """Samples per side of a slab (a CARVE_GRID x CARVE_GRID grid over the central part of the face)."""
 CARVE_INSET = 0.02
 """Fraction of each face dimension left out at its borders when sampling a slab."""
-PIXEL_MARGIN = 1.5
+PIXEL_MARGIN = 1.0
 """Pixels (of the coarsest view at the part) left out at a face's borders too: a mask's silhouette is only
 known to a pixel, so a sample nearer the border than that may fall just outside the part's mask."""
 CARVE_STOP = 0.1
