@@ -18,9 +18,10 @@ with clean depth and with 2 mm Gaussian depth noise.
 Printed: per task, scene group, view set and noise the point error median / max (mm, 3-D distance to the true
 centre), line direction and surface normal error median / max (degrees), line axis and surface plane offsets
 (mm), the elements that no view saw and the parts no view saw (the painter then builds the whole object's
-element, which is not scored against the part); then per task and element; then overall per view set; the centred pairs' horizontal
-offsets; and machine-readable ``name: value unit`` lines for the two-view targets (points median <= 3 mm and
-max <= 8 mm, directions <= 2 degrees, centred pairs <= 5 mm) and for the front view alone.
+element, which is not scored against the part); then per task and element; then overall per view set; the
+worst point-like errors from two views (which element, scene and views); the centred pairs' horizontal offsets;
+and machine-readable ``name: value unit`` lines for the two-view targets (points median <= 3 mm and max
+<= 8 mm, directions <= 2 degrees, centred pairs <= 5 mm) and for the front view alone.
 
 Run: ``nice -n 10 .venv/bin/python benchmarks/element_accuracy.py [--seeds 5] [--every 2.0] [--tasks ...]``.
 """
@@ -255,6 +256,12 @@ def main(argv: list[str] | None = None) -> int:
             recs = [r for r in records if r.views == vs and r.noise == noise]
             overall[(vs, noise)] = s = _summary(recs)
             print(f"  {vs:<9} noise {noise:.0f} mm: {_fmt(s)}{_missing(recs)}")
+    worst = sorted((r for r in records if r.views in TWO_VIEW_SETS and r.errors is not None),
+                   key=lambda r: -max(v for k, v in r.errors.items() if not k.endswith("_deg")))[:12]
+    print("worst point-like errors from two views (point, axis offset, surface centre; mm):")
+    for r in worst:
+        e = max(v for k, v in r.errors.items() if not k.endswith("_deg"))
+        print(f"  {1000 * e:6.1f}  {r.task:<18} {r.name:<24} {r.label:<22} {r.views:<9} noise {r.noise:.0f} mm")
     print("centred pairs (horizontal offset read between two perfectly centred stacked blocks, mm):")
     for (vs, noise), v in sorted(pairs.items()):
         a = 1000.0 * np.asarray(v)

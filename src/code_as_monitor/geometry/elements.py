@@ -2,7 +2,7 @@
 
 Pipeline of :func:`build_element` (all clouds (N, 3), world frame, metres):
 
-1. the part's cloud over all views (:mod:`~.part_cloud`: lift, fuse, downsample, filter, DBSCAN);
+1. the part's cloud over all views (:mod:`~.part_cloud`: lift, fuse, downsample, filter, dense clusters);
 2. an oriented box fitted to it, its hidden sides carved through the space no view sees
    (:mod:`~.solid`: a face's normal and a second face or the outline give the axes; the visible faces give the
    extents; a side no view sees past grows until a view sees past it or it meets another surface or the
