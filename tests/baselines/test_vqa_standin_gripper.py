@@ -18,8 +18,8 @@ from code_as_monitor.baselines.vqa_standin import VQAStandin
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, RobotState
 from code_as_monitor.sim.env import make_env
-from code_as_monitor.vlm.kb import book as kb_book
-from code_as_monitor.vlm.kb import manip
+from code_as_monitor.vlm.kb.families import book as kb_book
+from code_as_monitor.vlm.kb.families import pen as manip
 
 PEN = {c["id"].split("_")[0]: Constraint.from_dict(c)
        for c in manip.grasp("pen") + manip.reorient("pen") + manip.insert("pen", "pen_holder")}
@@ -156,7 +156,7 @@ def test_book_flat_then_upright_in_the_gripper(book_scene):
     assert not _ask(BOOK, "shelved", o)
     book_scene.put("book", (0.47, 0.10, 0.22), axis=(0.0, 0.0, -1.0), yaw=np.pi / 2)  # spine to the camera
     o = book_scene.obs((0.47, 0.10, 0.22))
-    for key in ("grasped", "raised", "gripped", "upright", "conveyed", "poised", "aimed", "standing"):
+    for key in ("grasped", "lifted", "gripped", "upright", "conveyed", "poised", "aimed", "standing"):
         assert _ask(BOOK, key, o), key
     assert not _ask(BOOK, "freed", o) and not _ask(BOOK, "shelved", o)
     book_scene.put("book", (0.47, 0.10, 0.22), axis=(0.0, 0.0, -1.0), yaw=0.0)  # the cover to the camera
