@@ -98,7 +98,8 @@ def _alarms(alarms: list[dict[str, Any]], cfs: list[dict[str, Any] | None]) -> l
     out = []
     for i, a in enumerate(alarms):
         d = {"t": round(float(a["t"]), 3), "constraint_id": a["constraint_id"], "phase": a["phase"],
-             "proactive": bool(a["proactive"]), "reason": str(a["reason"])[:160]}
+             "proactive": bool(a["proactive"]), "reason": str(a["reason"])[:160],
+             "objects": list(a.get("objects", []))}
         if i < len(cfs) and cfs[i] is not None:
             d["cf"] = cfs[i]
         out.append(d)
@@ -197,6 +198,10 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
                            "episode": job.episode, "episode_seed": seed, "task": cond.task,
                            "undisturbed": cond.undisturbed}
+    if job.method == "cam":
+        from code_as_monitor.bench.reproduce import run_command
+
+        rec["run"] = run_command(cond.task, seed, dict(cond.params), opts.to_dict())
     if video_dir is not None:
         video_dir.mkdir(parents=True, exist_ok=True)
     try:

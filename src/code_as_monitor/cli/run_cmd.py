@@ -31,6 +31,9 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=v.seed, default=None, help="episode seed")
     p.add_argument("--p", type=v.probability, default=None, help="drop probability per decision step (stack-in-order)")
     p.add_argument("--q", type=v.non_negative, default=None, help="placement noise bound in cm (stack-in-order)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="any task config field (VALUE parsed as JSON, else a string; see `cam sim --list`), e.g. "
+                        "--set disturbance=a for slot-pen; repeatable")
     p.add_argument("--instruction", default=None,
                    help="the instruction for the agent (default: the task's own); the task's goal and success "
                         "check follow it, e.g. --instruction \"stack red on top of green on top of blue\"")
@@ -105,6 +108,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
     if not sep or not w.isdigit() or not h.isdigit():
         raise ConfigError(f"--size must look like 640x480, got {args.size!r}")
     params = dict(default_params or {})
+    params.update(v.parse_settings(getattr(args, "set", None) or []))
     if args.p is not None:
         params["p"] = args.p
     if args.q is not None:
