@@ -61,3 +61,32 @@ def test_round_trip() -> None:
 def test_validation_names_the_problem(kind: str, pts: np.ndarray, message: str) -> None:
     with pytest.raises(ElementError, match=message):
         Element(0, "e", kind, pts)  # type: ignore[arg-type]
+
+
+def test_clouds_and_support_are_optional_kept_and_counted_only() -> None:
+    from code_as_monitor.core.elements import ElementSupport
+
+    plain = Element.point(0, "p", [0.0, 0.0, 0.0])
+    assert plain.cloud is None and plain.object_cloud is None and plain.support is None
+    assert set(plain.to_dict()) == {"id", "name", "kind", "points", "owner", "color"}
+    cloud = np.random.default_rng(0).normal(size=(50, 3))
+    sup = ElementSupport(points=50, views=2, residual=0.0012, spread=0.02, extent=(0.04, 0.04, 0.03))
+    e = Element.point(1, "block", [0.1, 0.0, 0.02], ("block", ""), cloud=cloud, object_cloud=cloud[:10], support=sup)
+    d = e.to_dict()
+    assert (d["cloud_points"], d["object_cloud_points"]) == (50, 10)
+    assert "cloud" not in d and d["support"]["views"] == 2
+    back = Element.from_dict(d)
+    assert back.cloud is None and back.support == sup
+    m = e.moved(np.array([[0.2, 0.0, 0.02]]))
+    assert m.cloud is e.cloud and m.support is sup and m.points[0, 0] == 0.2
+    assert "cloud" not in repr(e)  # the clouds are not printed
+    assert sup.weak(min_points=60) and not sup.weak() and ElementSupport(5, 1, 0.0).weak()
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [("cloud", np.zeros((4, 2)), r"cloud must be \(M, 3\)"), ("object_cloud", np.full((2, 3), np.inf), "NaN or inf")],
+)
+def test_bad_clouds_are_named(field: str, value: np.ndarray, message: str) -> None:
+    with pytest.raises(ElementError, match=message):
+        Element.point(0, "p", [0.0, 0.0, 0.0], **{field: value})

@@ -2,7 +2,7 @@
 
 from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal, Verdict
-from code_as_monitor.core.elements import Element, ElementKind, ElementSpec, color_for
+from code_as_monitor.core.elements import Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import CamError
 from code_as_monitor.core.observation import Observation, RobotState, View
 from code_as_monitor.core.policy import Policy
@@ -17,6 +17,7 @@ __all__ = [
     "Element",
     "ElementKind",
     "ElementSpec",
+    "ElementSupport",
     "Observation",
     "Phase",
     "Policy",

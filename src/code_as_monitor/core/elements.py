@@ -5,7 +5,7 @@ All points are in the world frame, metres.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -76,6 +76,46 @@ class ElementSpec:
         return cls(d["name"], d["obj"], d.get("part", ""), ElementKind.parse(d.get("kind", "point")))
 
 
+MAX_CLOUD_POINTS = 2000
+"""The most points an element's ``cloud`` / ``object_cloud`` carries (the painter voxel-downsamples to it)."""
+
+
+@dataclass(frozen=True)
+class ElementSupport:
+    """How well the observations supported an element: what checks and the agent read to tell a weak one.
+
+    Attributes:
+        points: number of cloud points (after fusion, downsampling and outlier removal) the fit used.
+        views: number of views whose mask contributed at least one valid depth reading.
+        residual: metres; RMS distance of those points to the fitted model (which model depends on the
+            kind: see :mod:`code_as_monitor.geometry.elements`), i.e. how well the model explains them.
+        spread: metres; half the largest extent of the cloud (how big the part looked).
+        extent: (3,) metres; the part's fitted size along its own axes (largest first); a size that is
+            not observed (a face no view sees) is the best estimate the fit could make.
+    """
+
+    points: int
+    views: int
+    residual: float
+    spread: float = 0.0
+    extent: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def to_dict(self) -> dict:
+        return {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
+                "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> ElementSupport:
+        ext = tuple(float(x) for x in d.get("extent", (0.0, 0.0, 0.0)))
+        return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
+                   (ext[0], ext[1], ext[2]))
+
+    def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004) -> bool:
+        """True when fewer than ``min_points`` points or ``min_views`` views supported the element, or its
+        fit residual exceeds ``max_residual`` metres."""
+        return self.points < min_points or self.views < min_views or self.residual > max_residual
+
+
 @dataclass
 class Element:
     """One constraint element.
@@ -87,6 +127,16 @@ class Element:
         points: (k, 3) world frame, metres; k = 1 (point), 2 (line), 3-4 (surface).
         owner: (object, part) it abstracts.
         color: (3,) RGB uint8 used to draw it.
+        cloud: optional (M, 3) world points (metres) of the owner's segmented mask (the part's mask when
+            the element has a part, else the instance's) over all views at paint time, voxel-downsampled
+            to at most :data:`MAX_CLOUD_POINTS`; ``None`` for elements not built from masks (the robot's).
+            A depth tracker registers it to new frames; the element's points move with it.
+        object_cloud: optional (M, 3) world, metres: the same for the whole object instance (the same
+            array as ``cloud`` for a whole-object element).
+        support: optional :class:`ElementSupport` (points, views, fit residual) of the estimate.
+
+    ``cloud``, ``object_cloud`` and ``support`` are left out of equality; :meth:`to_dict` writes the
+    support and only the clouds' point counts (events stay small).
     """
 
     id: int
@@ -95,8 +145,13 @@ class Element:
     points: np.ndarray
     owner: tuple[str, str] = ("", "")
     color: tuple[int, int, int] = field(default=(255, 255, 255))
+    cloud: np.ndarray | None = field(default=None, repr=False, compare=False)
+    object_cloud: np.ndarray | None = field(default=None, repr=False, compare=False)
+    support: ElementSupport | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
+        self.cloud = _check_cloud(self.cloud, self.name, "cloud")
+        self.object_cloud = _check_cloud(self.object_cloud, self.name, "object_cloud")
         self.kind = ElementKind.parse(self.kind)
         pts = np.asarray(self.points, dtype=np.float64)
         if pts.ndim == 1 and pts.shape == (3,):
@@ -142,8 +197,12 @@ class Element:
         """(3,) mean of the element's points."""
         return self.points.mean(axis=0)
 
+    def moved(self, points: np.ndarray) -> Element:
+        """A copy at ``points`` (k, 3) world, keeping the clouds, support and everything else."""
+        return replace(self, points=points)
+
     def to_dict(self) -> dict:
-        return {
+        d = {
             "id": self.id,
             "name": self.name,
             "kind": self.kind.value,
@@ -151,18 +210,39 @@ class Element:
             "owner": list(self.owner),
             "color": list(self.color),
         }
+        if self.support is not None:
+            d["support"] = self.support.to_dict()
+        if self.cloud is not None:
+            d["cloud_points"] = len(self.cloud)
+        if self.object_cloud is not None:
+            d["object_cloud_points"] = len(self.object_cloud)
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> Element:
+        """Inverse of :meth:`to_dict` (the clouds are not serialised: they come back as ``None``)."""
+        sup = d.get("support")
         return cls(
             int(d["id"]), d["name"], ElementKind.parse(d["kind"]), np.array(d["points"]),
             tuple(d.get("owner", ("", ""))), tuple(d.get("color", (255, 255, 255))),
+            support=None if sup is None else ElementSupport.from_dict(sup),
         )
 
 
 def color_for(element_id: int) -> tuple[int, int, int]:
     """The palette colour for an element id."""
     return PALETTE[element_id % len(PALETTE)]
+
+
+def _check_cloud(cloud: np.ndarray | None, name: str, what: str) -> np.ndarray | None:
+    if cloud is None:
+        return None
+    C = np.asarray(cloud, dtype=np.float64)
+    if C.ndim != 2 or C.shape[1] != 3:
+        raise ElementError(f"element {name!r}: {what} must be (M, 3), got {C.shape}")
+    if not np.all(np.isfinite(C)):
+        raise ElementError(f"element {name!r}: {what} contains NaN or inf")
+    return C
 
 
 def _col(id: int, kw: dict) -> dict:

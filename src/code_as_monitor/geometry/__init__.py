@@ -15,10 +15,12 @@ from code_as_monitor.geometry.backproject import (
 from code_as_monitor.geometry.elements import (
     VOXEL_DIVISIONS,
     build_element,
+    cap_cloud,
     ee_element,
     element_voxel_size,
     fine_voxel_size,
     fit_element_points,
+    mask_cloud,
     part_cloud,
 )
 from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample
@@ -30,6 +32,7 @@ __all__ = [
     "backproject_mask",
     "backproject_pixels",
     "build_element",
+    "cap_cloud",
     "compose",
     "ee_element",
     "element_voxel_size",
@@ -38,6 +41,7 @@ __all__ = [
     "fuse_points",
     "invert",
     "make_transform",
+    "mask_cloud",
     "part_cloud",
     "remove_outliers",
     "rotation_about",

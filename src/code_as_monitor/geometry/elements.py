@@ -35,7 +35,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from code_as_monitor.core.camera import CameraModel, validate_rigid
-from code_as_monitor.core.elements import Element, ElementKind, ElementSpec, color_for
+from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError, NoValidDepthError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
 from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample, voxel_keys
@@ -280,6 +280,14 @@ def part_cloud(
         ShapeMismatchError: a mask, depth and camera disagree in size.
         NoValidDepthError: no view has a mask pixel with a valid depth.
     """
+    Q, vs, _ = _part_cloud_views(observations, max_depth, k, std_ratio, name)
+    return Q, vs
+
+
+def _part_cloud_views(
+    observations: Sequence[Observation3D], max_depth: float, k: int, std_ratio: float, name: str
+) -> tuple[np.ndarray, float, int]:
+    """:func:`part_cloud` plus the number of views that gave at least one valid point."""
     clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
     P = fuse_points(clouds)
     if len(P) == 0:
@@ -287,7 +295,59 @@ def part_cloud(
         raise NoValidDepthError(f"{name}: no mask pixel with a valid depth in any view ({names})")
     vs = fine_voxel_size(P)
     Q, _ = voxel_downsample(P, vs)
-    return remove_outliers(Q, k=k, std_ratio=std_ratio), vs
+    return remove_outliers(Q, k=k, std_ratio=std_ratio), vs, sum(len(c) > 0 for c in clouds)
+
+
+def cap_cloud(points: np.ndarray, max_points: int = MAX_CLOUD_POINTS, voxel: float = MIN_FINE_VOXEL) -> np.ndarray:
+    """Voxel-downsample a cloud (N, 3) world metres until it holds at most ``max_points`` points.
+
+    Starts at ``voxel`` metres and grows the voxel by the square root of the excess (clouds of surfaces
+    shrink with the square of the voxel); returns the input unchanged when it is already small enough.
+    """
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if max_points < 1:
+        raise GeometryError(f"cap_cloud: max_points must be >= 1, got {max_points!r}")
+    g = float(voxel)
+    while len(P) > max_points:
+        g *= max(1.1, float(np.sqrt(len(P) / max_points)))
+        P, _ = voxel_downsample(P, g)
+    return P
+
+
+def mask_cloud(
+    observations: Sequence[Observation3D], max_points: int = MAX_CLOUD_POINTS, max_depth: float = DEFAULT_MAX_DEPTH
+) -> np.ndarray:
+    """The fused, downsampled, outlier-filtered cloud (M, 3) world metres of masks over views, at most
+    ``max_points`` points; (0, 3) when no mask pixel has a valid depth.
+
+    Raises:
+        ShapeMismatchError: a mask, depth and camera disagree in size.
+    """
+    try:
+        Q, vs, _ = _part_cloud_views(observations, max_depth, 16, 2.0, "cloud")
+    except NoValidDepthError:
+        return np.empty((0, 3))
+    return cap_cloud(Q, max_points, vs)
+
+
+def _support(Q: np.ndarray, pts: np.ndarray, kind: ElementKind, views: int) -> ElementSupport:
+    """The support record of element points ``pts`` (k, 3) fitted on cloud ``Q`` (M, 3)."""
+    c, axes = _principal_axes(Q)
+    s = (Q - c) @ axes.T
+    extent = s.max(axis=0) - s.min(axis=0) if len(Q) else np.zeros(3)
+    if kind is ElementKind.SURFACE and len(pts) >= 3:
+        n = np.cross(pts[1] - pts[0], pts[2] - pts[0])
+        n = n / max(float(np.linalg.norm(n)), 1e-12)
+        r = (Q - pts.mean(axis=0)) @ n
+    elif kind is ElementKind.LINE:
+        d = (pts[1] - pts[0]) / np.linalg.norm(pts[1] - pts[0])
+        X = Q - pts[0]
+        r = np.linalg.norm(X - np.outer(X @ d, d), axis=1)
+    else:
+        r = np.linalg.norm(Q - pts[0], axis=1)
+    return ElementSupport(len(Q), int(views), float(np.sqrt(np.mean(r**2))) if len(r) else 0.0,
+                          float(extent.max() / 2.0) if len(Q) else 0.0,
+                          (float(extent[0]), float(extent[1]), float(extent[2])))
 
 
 def build_element(
@@ -312,12 +372,14 @@ def build_element(
     Raises:
         ShapeMismatchError, NoValidDepthError, ElementError (degenerate geometry for the kind).
     """
-    P, vs = part_cloud(observations, max_depth, k, std_ratio, name=f"element {spec.name!r}")
+    P, vs, views = _part_cloud_views(observations, max_depth, k, std_ratio, f"element {spec.name!r}")
     try:
         pts = fit_element_points(P, spec.kind, voxel_size=vs)
     except ElementError as exc:
         raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): {exc}") from None
-    return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id))
+    cloud = cap_cloud(P, MAX_CLOUD_POINTS, vs)
+    return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id), cloud=cloud,
+                   support=_support(P, pts, spec.kind, views))
 
 
 def ee_element(

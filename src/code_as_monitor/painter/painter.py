@@ -96,6 +96,7 @@ class Painter:
         per_view = []
         results = [(view, self.segmenter.segment(view, spec, constraint_text))  # type: ignore[attr-defined]
                    for view in obs.views.values()]
+        whole = [(r.instance_mask, v.depth, v.camera) for v, r in results if r.instance_mask.sum() >= self.min_pixels]
         # A part seen well enough in some view is built from part masks only: falling back to the whole
         # object in a view that sees the part too small would pull the element off the part.
         part_seen = bool(spec.part) and any(r.part_mask.sum() >= self.min_pixels for _, r in results)
@@ -112,7 +113,14 @@ class Painter:
         if not per_view:
             return None
         try:
-            return build_element(element_id, spec, per_view)
+            el = build_element(element_id, spec, per_view)
+            if not spec.part:
+                el.object_cloud = el.cloud
+            elif whole:
+                from code_as_monitor.geometry import mask_cloud
+
+                el.object_cloud = mask_cloud(whole)
+            return el
         except CamError as exc:
             log.info("element %d (%s) could not be built: %s", element_id, spec.name, exc)
             return None
