@@ -164,6 +164,8 @@ class DepthTrackerConfig(TrackerConfig):
         min_seen_frac: ... and at least this fraction of the points seen when the body was painted ...
         max_contradiction: ... and at most this fraction of its informative points contradicted;
             otherwise the body is lost this frame and its elements are stale.
+        max_rotation: degrees; a registration that turns its guess further than this is not taken (a block
+            seen from two faces has symmetric fits a quarter turn away; nothing turns that fast here).
         max_overlap: when this fraction of one body's model points lies on another object's body (within
             ``depth_tol``), the two claim the same surface: the one painted longer ago (or, painted
             together, the one that moved further) is lost.
@@ -174,7 +176,8 @@ class DepthTrackerConfig(TrackerConfig):
         plane_band: metres; points this close to the dominant (support) plane fitted at reset are left
             out of models and scenes (0 disables the plane).
         tool_radius, tool_margin: metres; scene points further than ``tool_margin`` up the tool axis from
-            the end-effector tip and within ``tool_radius`` of the axis are the end-effector, left out.
+            the end-effector tip and within ``tool_radius`` of the axis are the end-effector, left out (the
+            radius grows to hold the robot state's named end-effector points, e.g. a gripper's jaws).
         held_distance: metres; a body whose model comes this close to the tip while the gripper or
             suction is on is also tried where the end-effector's motion since the last frame moved it.
         moving: metres per frame; a body that moved more than this last frame is also tried at a constant
@@ -195,14 +198,15 @@ class DepthTrackerConfig(TrackerConfig):
     margin_px: int = 8
     box_margin: float = 0.025
     depth_tol: float = 0.005
-    min_seen: int = 12
-    min_seen_frac: float = 0.2
+    min_seen: int = 15
+    min_seen_frac: float = 0.1
     max_contradiction: float = 0.15
     max_overlap: float = 0.3
+    max_rotation: float = 45.0
     unmoved_seen: float = 0.97
     unmoved_residual: float = 0.0005
     plane_band: float = 0.004
-    tool_radius: float = 0.045
+    tool_radius: float = 0.02
     tool_margin: float = 0.004
     held_distance: float = 0.02
     moving: float = 0.003
@@ -226,8 +230,8 @@ class DepthTrackerConfig(TrackerConfig):
             raise ConfigError(f"depth.max_overlap must be in (0, 1], got {self.max_overlap!r}")
         if not 0.0 <= self.max_contradiction <= 1.0:
             raise ConfigError(f"depth.max_contradiction must be in [0, 1], got {self.max_contradiction!r}")
-        for f in ("max_iterations", "voxel", "max_model_points", "depth_tol", "min_seen", "max_depth", "min_points",
-                  "reacquire_after"):
+        for f in ("max_iterations", "voxel", "max_model_points", "max_rotation", "depth_tol", "min_seen",
+                  "max_depth", "min_points", "reacquire_after"):
             check_positive("depth", f, getattr(self, f))
         for f in ("min_information", "margin_px", "box_margin", "plane_band", "tool_radius", "tool_margin",
                   "held_distance", "moving", "gravity"):

@@ -108,10 +108,7 @@ class DepthTracker(Tracker):
         ee = _ee_pose(obs)
         dT_ee = ee @ invert(self._ee) if (ee is not None and self._ee is not None) else None
         on = obs.robot is not None and float(obs.robot.gripper) >= 0.5
-        tool = None
-        if ee is not None and c.tool_radius > 0:
-            tip = _tip(obs)
-            tool = (tip, -ee[:3, 2], c.tool_radius, c.tool_margin)
+        tool = _tool(obs, ee, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
         dt = obs.t - self._t if self._t is not None else 0.0
         moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
         for owner in self._ordered_bodies():
@@ -287,6 +284,18 @@ class DepthTracker(Tracker):
 
 def _ee_pose(obs: Observation) -> np.ndarray | None:
     return None if obs.robot is None else np.asarray(obs.robot.ee_pose, dtype=np.float64)
+
+
+def _tool(obs: Observation, ee: np.ndarray, radius: float, margin: float) -> tuple:
+    """The end-effector's exclusion cylinder: ``(tip, axis into the tool, radius, margin)``; the radius
+    grows to hold the named end-effector points (a gripper's jaws) with 1.5 cm to spare."""
+    tip = _tip(obs)
+    axis = -ee[:3, 2]
+    assert obs.robot is not None
+    for p in obs.robot.ee_points.values():
+        rel = np.asarray(p, dtype=np.float64).reshape(3) - tip
+        radius = max(radius, float(np.linalg.norm(rel - (rel @ axis) * axis)) + 0.015)
+    return tip, axis, radius, margin
 
 
 def _tip(obs: Observation) -> np.ndarray:

@@ -58,7 +58,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         found = _unmoved(c, body, views, related[-1] if body.parent is not None and related else None)
     guesses = _guesses(c, body, dT_ee, related, dt)
     if views and found is None:
-        boxes = [apply(T, body.model.box) for T in guesses]
+        boxes = [apply(T, body.model.box) for tier in guesses for T in tier]
         scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
@@ -76,12 +76,15 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
     body.lost, body.lost_before, body.lost_frames, body.seen_views = False, body.lost_frames, 0, sup.views
 
 def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, related: list[np.ndarray],
-             dt: float) -> list[np.ndarray]:
-    """Candidate poses, most likely first: carried by the end-effector; moved like the parts of the same
-    object already registered this frame (a drawer with its handle) and like the whole object; where
-    it was; at constant velocity; falling; dropped from the gripper."""
+             dt: float) -> list[list[np.ndarray]]:
+    """Candidate poses in two tiers, most likely first. First: carried by the end-effector; moved like the
+    parts of the same object already registered this frame (a drawer with its handle) and like the whole
+    object; where it was; at constant velocity. Then, tried only when none of those fits (a fall is the
+    less likely explanation; a fall guess that lands on an identical block must not win over a carried
+    block's own pose): falling at constant acceleration; dropped from the gripper."""
     T0 = body.T_search if body.lost else body.T
     out: list[np.ndarray] = []
+    falls: list[np.ndarray] = []
     if dT_ee is not None:
         out.append(dT_ee @ T0)
     for M in related:  # the motion as estimated, and its translation of this body's centre alone
@@ -96,12 +99,14 @@ def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, r
         out.append(step @ T0)
         fall = step @ T0
         fall[2, 3] -= c.gravity * dt * dt
-        out.append(fall)
+        falls.append(fall)
     if dT_ee is not None:  # released: a free-fall step below where the gripper took it
         drop = dT_ee @ T0
         drop[2, 3] -= 0.5 * c.gravity * dt * dt
-        out.append(drop)
-    return _distinct(out, body.model.radius if body.model is not None else 0.05)
+        falls.append(drop)
+    r = body.model.radius if body.model is not None else 0.05
+    first = _distinct(out, r)
+    return [first, [T for T in _distinct(first + falls, r) if not any(T is S for S in first)]]
 
 def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
              parent_move: np.ndarray | None) -> tuple[np.ndarray, Support] | None:
@@ -119,12 +124,13 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
     return None
 
 def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
-            guesses: list[np.ndarray]) -> tuple[np.ndarray, Support] | None:
-    """Register from each guess in order (most likely first), first with the finest correspondence
-    distance only (a guess already close must not be pulled off by a neighbour's surface), then, when
-    none passes, coarse to fine. The search stops at a passing result with as much evidence as the last
-    frame had; otherwise the passing result with the most evidence wins (a static cabinet frame does
-    not follow its drawer: the drawer's motion passes for it but fits worse than staying put)."""
+            tiers: list[list[np.ndarray]]) -> tuple[np.ndarray, Support] | None:
+    """Register from each guess of a tier in order (most likely first), first with the finest
+    correspondence distance only (a guess already close must not be pulled off by a neighbour's
+    surface), then, when none passes, coarse to fine; the next tier only when nothing passed. The search
+    stops at a passing result with as much evidence as the last frame had; otherwise the passing result
+    with the most evidence wins (a static cabinet frame does not follow its drawer: the drawer's motion
+    passes for it but fits worse than staying put)."""
     import small_gicp
 
     model = body.model
@@ -137,18 +143,23 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
         small_gicp.estimate_covariances(source, num_neighbors=10)
     need = max(c.min_seen, int(c.min_seen_frac * body.ref_seen))
     fine = c.max_correspondence[-1:]
+    guesses = [T for tier in tiers for T in tier]
     at_guess: list[Support | None] = [None] * len(guesses)
     best: tuple[np.ndarray, Support] | None = None
-    for rounds in (fine, c.max_correspondence) if len(c.max_correspondence) > 1 else (fine,):
-        for i, T0 in enumerate(guesses):
+    passes = [(tier, rounds) for tier in range(len(tiers))
+              for rounds in ((fine, c.max_correspondence) if len(c.max_correspondence) > 1 else (fine,))]
+    start = np.cumsum([0] + [len(t) for t in tiers])
+    for tier, rounds in passes:
+        for i in range(start[tier], start[tier + 1]):
+            T0 = guesses[i]
             T, _ = register(model, source, T0, c.registration, rounds, c.max_iterations, c.min_information)
             sup = support(apply(T, model.points), views, c.depth_tol, c.max_depth)
             if at_guess[i] is None:
                 at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
             g = at_guess[i]
             assert g is not None
-            if _score(g) > _score(sup):  # the registration made a fitting guess worse: keep the guess
-                T, sup = T0, g
+            if _score(g) > _score(sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
+                T, sup = T0, g  # made worse, or turned further than a body turns between two frames
             if sup.seen < need or sup.contradiction > c.max_contradiction:
                 continue
             if best is None or _score(sup) > _score(best[1]):
@@ -174,6 +185,12 @@ def moves_body(M: np.ndarray, body: BodyState) -> bool:
         return False
     c = apply(body.T, body.model.centre[None])
     return bool(np.linalg.norm(apply(M, c) - c) > 1e-3)
+
+
+def _angle(A: np.ndarray, B: np.ndarray) -> float:
+    """Degrees between the rotations of two poses (4, 4)."""
+    R = A[:3, :3].T @ B[:3, :3]
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
 
 
 def _score(s: Support) -> float:
