@@ -166,6 +166,9 @@ class DepthTrackerConfig(TrackerConfig):
             otherwise the body is lost this frame and its elements are stale.
         max_rotation: degrees; a registration that turns its guess further than this is not taken (a block
             seen from two faces has symmetric fits a quarter turn away; nothing turns that fast here).
+        fall_correspondence: metres; the first ICP round's correspondence distance from a falling guess.
+        fall_seen_frac: a falling guess's result must see at least this fraction of the points the body's
+            last good pose saw (a fall is searched from far: a half-way fit must not pass).
         max_overlap: when this fraction of one body's model points lies on another object's body (within
             ``depth_tol``), the two claim the same surface: the one painted longer ago (or, painted
             together, the one that moved further) is lost.
@@ -203,6 +206,8 @@ class DepthTrackerConfig(TrackerConfig):
     max_contradiction: float = 0.15
     max_overlap: float = 0.3
     max_rotation: float = 45.0
+    fall_correspondence: float = 0.04
+    fall_seen_frac: float = 0.5
     unmoved_seen: float = 0.97
     unmoved_residual: float = 0.0005
     plane_band: float = 0.004
@@ -223,6 +228,9 @@ class DepthTrackerConfig(TrackerConfig):
             raise ConfigError(f"depth.max_correspondence must be positive distances, got {self.max_correspondence!r}")
         if not 0.0 <= self.min_seen_frac <= 1.0:
             raise ConfigError(f"depth.min_seen_frac must be in [0, 1], got {self.min_seen_frac!r}")
+        if not 0.0 <= self.fall_seen_frac <= 1.0:
+            raise ConfigError(f"depth.fall_seen_frac must be in [0, 1], got {self.fall_seen_frac!r}")
+        check_positive("depth", "fall_correspondence", self.fall_correspondence)
         if not 0.0 < self.unmoved_seen <= 1.0:
             raise ConfigError(f"depth.unmoved_seen must be in (0, 1], got {self.unmoved_seen!r}")
         check_positive("depth", "unmoved_residual", self.unmoved_residual, allow_zero=True)

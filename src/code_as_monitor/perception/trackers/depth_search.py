@@ -62,7 +62,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
-            found = _search(c, body, views, scene, guesses)
+            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane)
     if found is None:
         body.lost = True
         body.lost_frames += 1
@@ -124,13 +124,15 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
     return None
 
 def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
-            tiers: list[list[np.ndarray]]) -> tuple[np.ndarray, Support] | None:
+            tiers: list[list[np.ndarray]], plane: Plane | None = None) -> tuple[np.ndarray, Support] | None:
     """Register from each guess of a tier in order (most likely first), first with the finest
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
-    surface), then, when none passes, coarse to fine; the next tier only when nothing passed. The search
+    surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
+    coarser start (``fall_correspondence``) and with a higher bar (``fall_seen_frac``). The search
     stops at a passing result with as much evidence as the last frame had; otherwise the passing result
     with the most evidence wins (a static cabinet frame does not follow its drawer: the drawer's motion
-    passes for it but fits worse than staying put)."""
+    passes for it but fits worse than staying put). A pose that sinks the body more than ``plane_band``
+    into the support ``plane`` is refused: points behind a surface are only occluded to the cameras."""
     import small_gicp
 
     model = body.model
@@ -146,8 +148,11 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     guesses = [T for tier in tiers for T in tier]
     at_guess: list[Support | None] = [None] * len(guesses)
     best: tuple[np.ndarray, Support] | None = None
-    passes = [(tier, rounds) for tier in range(len(tiers))
-              for rounds in ((fine, c.max_correspondence) if len(c.max_correspondence) > 1 else (fine,))]
+    coarse = c.max_correspondence if len(c.max_correspondence) > 1 else None
+    passes = [(0, fine)] + ([(0, coarse)] if coarse else [])
+    if len(tiers) > 1:  # a fall: far from every guess; it must explain the frame about as well as before
+        passes.append((1, (c.fall_correspondence, *c.max_correspondence)))
+    fall_need = max(need, int(c.fall_seen_frac * (body.last.seen if body.last is not None else body.ref_seen)))
     start = np.cumsum([0] + [len(t) for t in tiers])
     for tier, rounds in passes:
         for i in range(start[tier], start[tier + 1]):
@@ -160,8 +165,10 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
             assert g is not None
             if _score(g) > _score(sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
                 T, sup = T0, g  # made worse, or turned further than a body turns between two frames
-            if sup.seen < need or sup.contradiction > c.max_contradiction:
+            if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
+            if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
+                continue  # sunk into the support plane: the cameras cannot see that, but it is solid
             if best is None or _score(sup) > _score(best[1]):
                 best = (T, sup)
             if _as_good_as_last(c, body, sup):
