@@ -141,6 +141,8 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     if source.size() > 2 * c.max_model_points:  # a crop bigger than the body: a coarser grid
         coarser = model.voxel * np.sqrt(source.size() / (2 * c.max_model_points))
         source = small_gicp.voxelgrid_sampling(scene, coarser)
+    if source.size() < max(10, c.min_points):  # too little to register (small_gicp wants 10)
+        return None
     if c.registration == "GICP":
         small_gicp.estimate_covariances(source, num_neighbors=10)
     need = max(c.min_seen, int(c.min_seen_frac * body.ref_seen))
