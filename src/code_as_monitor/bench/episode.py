@@ -184,7 +184,8 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     cfs = _Counterfactuals(opts)
     rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
                            "episode": job.episode, "episode_seed": seed, "task": cond.task,
-                           "undisturbed": cond.undisturbed}
+                           "undisturbed": cond.undisturbed,
+                           "tracker": opts.tracker if job.method == "cam" else None}
     if video_dir is not None:
         video_dir.mkdir(parents=True, exist_ok=True)
     try:

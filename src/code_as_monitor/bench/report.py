@@ -75,7 +75,11 @@ def wall_time(lines: list[dict[str, Any]]) -> float:
 def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     """The Markdown tables (ours; the paper's beside it; cost; detection)."""
     ms, cs, cells = summary["methods"], summary["conditions"], summary["cells"]
-    out = ["| Condition | n/cell | " + " | ".join(f"SR {HEADERS[m]}" for m in ms) + " | "
+    opts = summary.get("options") or {}
+    tracker = opts.get("tracker", "sim")
+    out = [f"CaM perception: elements painted from `{opts.get('segmenter', 'sim')}` masks, tracked by `{tracker}`"
+           + (" (the oracle: ground-truth poses)" if tracker == "sim" else " (no simulator poses)") + ".", "",
+           "| Condition | n/cell | " + " | ".join(f"SR {HEADERS[m]}" for m in ms) + " | "
            + " | ".join(f"Time {HEADERS[m]}" for m in ms if m != "open-loop") + " |",
            "|---|---|" + "---|" * (len(ms) + len([m for m in ms if m != "open-loop"]))]
     for c in cs:

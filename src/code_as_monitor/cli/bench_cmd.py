@@ -45,7 +45,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", default="kb", help="VLM backend: kb (offline stand-in) or openai")
     p.add_argument("--backend-options", type=json.loads, default={}, help="JSON object of backend options")
     p.add_argument("--doremi-k", type=float, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
-    p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle) or lk (default sim)")
+    p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle, default), lk, depth; recorded in every "
+                   "result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--no-counterfactual", action="store_true", help="skip counterfactual rollouts")
     p.add_argument("--list", action="store_true", help="list conditions and methods")

@@ -31,7 +31,9 @@ def add_common(p: argparse.ArgumentParser) -> None:
                    help="environment variable holding the API key (default OPENAI_API_KEY; 'none' for none)")
     p.add_argument("--cassette", type=Path, default=None, help="JSONL cassette (replay backend)")
     p.add_argument("--segmenter", default="sim", help="segmenter: sim (ground-truth masks, default), color, http")
-    p.add_argument("--tracker", default="lk", help="tracker: lk (OpenCV Lucas-Kanade, default), sim (oracle)")
+    p.add_argument("--tracker", default="lk",
+                   help="tracker: lk (OpenCV Lucas-Kanade, default), depth (depth registration with small_gicp), "
+                        "sim (oracle)")
     p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
     p.add_argument("--camera-hz", type=float, default=10.0, help="monitoring/camera rate, Hz (default 10)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
