@@ -285,7 +285,11 @@ def main(argv: list[str] | None = None) -> int:
                 for tr in trackers:
                     if (tr, cid, seed) in done:
                         continue
-                    rec, _ = run_episode(tr, cid, seed)
+                    try:
+                        rec, _ = run_episode(tr, cid, seed)
+                    except Exception as exc:  # one broken episode (a sandbox that would not start) is reported
+                        print(f"{cid} seed {seed} {tr}: ERROR {type(exc).__name__}: {exc}", flush=True)
+                        continue  # not recorded: the next run retries it
                     records.append(rec)
                     with args.out.open("a") as fh:
                         fh.write(json.dumps(rec) + "\n")

@@ -113,6 +113,8 @@ class DepthTracker(Tracker):
         moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
         for owner in self._ordered_bodies():
             body = self._bodies[owner]
+            if not body.elements and body.lost and body.lost_frames > c.reacquire_after:
+                continue  # a whole object only its parts use, lost for good (a rope that bent): parts go alone
             related = []
             if body.parent is not None:  # parts of the same object that moved, then the whole object
                 related = [m for o, m in moves.items() if o[0] == owner[0] and o[1] and moves_body(m, body)]
@@ -178,27 +180,25 @@ class DepthTracker(Tracker):
         longer ago, or on a tie the one that moved further this frame, is lost."""
         c = self.config
         live = [b for b in self._bodies.values() if b.model is not None and not b.lost]
-        centres = [apply(b.T, b.model.centre[None])[0] for b in live]  # type: ignore[union-attr]
-        for i, a in enumerate(live):
-            for j in range(i + 1, len(live)):
-                b = live[j]
-                if a.owner[0] == b.owner[0] or a.lost or b.lost:
-                    continue
-                ra, rb = a.model.radius, b.model.radius  # type: ignore[union-attr]
-                if np.linalg.norm(centres[i] - centres[j]) > ra + rb:
-                    continue
-                small, big = (a, b) if len(a.model.points) <= len(b.model.points) else (b, a)  # type: ignore[union-attr]
-                P = apply(invert(big.T) @ small.T, small.model.points)  # type: ignore[union-attr]
-                _, d2 = big.model.tree.batch_nearest_neighbor_search(P)  # type: ignore[union-attr]
-                if np.mean(np.sqrt(np.asarray(d2)) <= c.depth_tol) < c.max_overlap:
-                    continue
-                if a.painted != b.painted:
-                    loser = a if a.painted < b.painted else b
-                else:
-                    loser = a if a.moved >= b.moved else b
-                log.debug("bodies %s and %s overlap: %s lost", a.owner, b.owner, loser.owner)
-                loser.T, loser.T_search = loser.T_prev, loser.T_prev
-                loser.lost, loser.lost_frames, loser.seen_views = True, loser.lost_before + 1, 0
+        if len(live) < 2:
+            return
+        centres = np.array([apply(b.T, b.model.centre[None])[0] for b in live])  # type: ignore[union-attr]
+        radii = np.array([b.model.radius for b in live])  # type: ignore[union-attr]
+        near = np.linalg.norm(centres[:, None] - centres[None], axis=2) <= radii[:, None] + radii[None]
+        for i, j in zip(*np.nonzero(np.triu(near, 1))):
+            a, b = live[i], live[j]
+            if a.owner[0] == b.owner[0] or a.lost or b.lost:
+                continue
+            assert a.model is not None and b.model is not None
+            small, big = (a, b) if len(a.model.points) <= len(b.model.points) else (b, a)
+            P = apply(invert(big.T) @ small.T, small.model.points)  # type: ignore[union-attr]
+            _, d2 = big.model.tree.batch_nearest_neighbor_search(P)  # type: ignore[union-attr]
+            if np.mean(np.sqrt(np.asarray(d2)) <= c.depth_tol) < c.max_overlap:
+                continue
+            loser = min((a, b), key=lambda x: (x.painted, -x.moved))  # painted earlier, else moved further
+            log.debug("bodies %s and %s overlap: %s lost", a.owner, b.owner, loser.owner)
+            loser.T, loser.T_search = loser.T_prev, loser.T_prev
+            loser.lost, loser.lost_frames, loser.seen_views = True, loser.lost_before + 1, 0
 
     def _update_held(self, obs: Observation, on: bool) -> None:
         tip = _tip(obs) if obs.robot is not None else None
