@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 import pytest
 
 from code_as_monitor.bench.closed_loop import check_choices
 from code_as_monitor.bench.episode import EpisodeOptions
-from code_as_monitor.bench.report import markdown, summarise
+from code_as_monitor.bench.report import markdown
 from code_as_monitor.cli import demo_cmd, run_cmd
 from code_as_monitor.cli.main import build_parser
 from code_as_monitor.core.errors import ConfigError
@@ -36,12 +35,13 @@ def test_run_default_tracker_is_unchanged():
     assert _parser().parse_args(["bench"]).tracker == "sim"
 
 
-def test_bench_records_the_tracker_and_the_report_names_it(tmp_path):
+def test_bench_records_the_tracker_and_the_report_names_it():
     args = _parser().parse_args(["bench", "--tracker", "depth"])
     opts = EpisodeOptions(tracker=args.tracker)
-    results = tmp_path / "r.jsonl"
-    results.write_text(json.dumps({"kind": "bench_start", "options": opts.to_dict()}) + "\n")
-    text = markdown(summarise(results))
-    assert "tracked by `depth` (no simulator poses)" in text.splitlines()[0]
-    results.write_text(json.dumps({"kind": "bench_start", "options": EpisodeOptions().to_dict()}) + "\n")
-    assert "tracked by `sim` (the oracle" in markdown(summarise(results)).splitlines()[0]
+
+    def first_line(options: dict) -> str:
+        summary = {"methods": [], "conditions": [], "cells": {}, "records": [], "wall_s": 0.0, "options": options}
+        return markdown(summary, with_paper=False).splitlines()[0]
+
+    assert "tracked by `depth` (no simulator poses)" in first_line(opts.to_dict())
+    assert "tracked by `sim` (the oracle" in first_line(EpisodeOptions().to_dict())
