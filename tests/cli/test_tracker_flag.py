@@ -40,7 +40,8 @@ def test_bench_records_the_tracker_and_the_report_names_it():
     opts = EpisodeOptions(tracker=args.tracker)
 
     def first_line(options: dict) -> str:
-        summary = {"methods": [], "conditions": [], "cells": {}, "records": [], "wall_s": 0.0, "options": options}
+        summary = {"methods": [], "conditions": [], "cells": {}, "records": [], "wall_s": 0.0, "options": options,
+                   "versions": {}, "ignored": []}
         return markdown(summary, with_paper=False).splitlines()[0]
 
     assert "tracked by `depth` (no simulator poses)" in first_line(opts.to_dict())
