@@ -169,6 +169,8 @@ class DepthTrackerConfig(TrackerConfig):
         fall_correspondence: metres; the first ICP round's correspondence distance from a falling guess.
         fall_seen_frac: a falling guess's result must see at least this fraction of the points the body's
             last good pose saw (a fall is searched from far: a half-way fit must not pass).
+        related_parts: a part is also tried where the nearest this many other parts of its object that
+            moved this frame took it (a drawer moves with its handle); 0 disables.
         max_overlap: when this fraction of one body's model points lies on another object's body (within
             ``depth_tol``), the two claim the same surface: the one painted longer ago (or, painted
             together, the one that moved further) is lost.
@@ -205,6 +207,7 @@ class DepthTrackerConfig(TrackerConfig):
     min_seen_frac: float = 0.1
     max_contradiction: float = 0.15
     max_overlap: float = 0.3
+    related_parts: int = 2
     max_rotation: float = 45.0
     fall_correspondence: float = 0.04
     fall_seen_frac: float = 0.5
@@ -241,7 +244,8 @@ class DepthTrackerConfig(TrackerConfig):
         for f in ("max_iterations", "voxel", "max_model_points", "max_rotation", "depth_tol", "min_seen",
                   "max_depth", "min_points", "reacquire_after"):
             check_positive("depth", f, getattr(self, f))
-        for f in ("min_information", "margin_px", "box_margin", "plane_band", "tool_radius", "tool_margin",
+        for f in ("related_parts", "min_information", "margin_px", "box_margin", "plane_band", "tool_radius",
+                  "tool_margin",
                   "held_distance", "moving", "gravity"):
             check_positive("depth", f, getattr(self, f), allow_zero=True)
 

@@ -117,7 +117,7 @@ class DepthTracker(Tracker):
                 continue  # a whole object only its parts use, lost for good (a rope that bent): parts go alone
             related = []
             if body.parent is not None:  # parts of the same object that moved, then the whole object
-                related = [m for o, m in moves.items() if o[0] == owner[0] and o[1] and moves_body(m, body)]
+                related = self._nearest_moved(body, moves, c.related_parts)
                 if body.parent in moves:
                     related.append(moves[body.parent])
             before = body.T.copy()
@@ -173,6 +173,19 @@ class DepthTracker(Tracker):
     def _ordered_bodies(self) -> list[Owner]:
         """Whole objects first, then held parts (their motion is known best), then the other parts."""
         return sorted(self._bodies, key=lambda o: (self._bodies[o].parent is not None, not self._bodies[o].held))
+
+    def _nearest_moved(self, body: BodyState, moves: dict[Owner, np.ndarray], k: int) -> list[np.ndarray]:
+        """This frame's motions of up to ``k`` other parts of ``body``'s object that moved it, nearest first."""
+        if body.model is None or k <= 0:
+            return []
+        here = apply(body.T, body.model.centre[None])[0]
+        cands = []
+        for o, m in moves.items():
+            other = self._bodies[o]
+            if o[0] != body.owner[0] or not o[1] or o == body.owner or other.model is None or not moves_body(m, body):
+                continue
+            cands.append((float(np.linalg.norm(apply(other.T, other.model.centre[None])[0] - here)), m))
+        return [m for _, m in sorted(cands, key=lambda x: x[0])[:k]]
 
     def _resolve_overlaps(self) -> None:
         """Two bodies of different objects cannot occupy the same space: when one's model points mostly

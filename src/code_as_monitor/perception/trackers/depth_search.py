@@ -141,7 +141,7 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     if source.size() > 2 * c.max_model_points:  # a crop bigger than the body: a coarser grid
         coarser = model.voxel * np.sqrt(source.size() / (2 * c.max_model_points))
         source = small_gicp.voxelgrid_sampling(scene, coarser)
-    if source.size() < max(10, c.min_points):  # too little to register (small_gicp wants 10)
+    if source.size() < max(16, c.min_points):  # too little to register (small_gicp warns at 10)
         return None
     if c.registration == "GICP":
         small_gicp.estimate_covariances(source, num_neighbors=10)
@@ -157,7 +157,8 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     fall_need = max(need, int(c.fall_seen_frac * (body.last.seen if body.last is not None else body.ref_seen)))
     start = np.cumsum([0] + [len(t) for t in tiers])
     for tier, rounds in passes:
-        for i in range(start[tier], start[tier + 1]):
+        last = start[tier + 1] if rounds is fine or tier else min(start[tier + 1], start[tier] + 2)
+        for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
             T0 = guesses[i]
             T, _ = register(model, source, T0, c.registration, rounds, c.max_iterations, c.min_information)
             sup = support(apply(T, model.points), views, c.depth_tol, c.max_depth)
@@ -208,10 +209,10 @@ def _score(s: Support) -> float:
 
 
 def _distinct(poses: list[np.ndarray], radius: float) -> list[np.ndarray]:
-    """``poses`` without near-duplicates (within 2 mm at the body's extent), first occurrence kept."""
+    """``poses`` without near-duplicates (within 3 mm at the body's extent), first occurrence kept."""
     out: list[np.ndarray] = []
     for T in poses:
-        if any(np.abs(T[:3, 3] - S[:3, 3]).max() < 0.002 and np.abs(T[:3, :3] - S[:3, :3]).max() * radius < 0.002
+        if any(np.abs(T[:3, 3] - S[:3, 3]).max() < 0.003 and np.abs(T[:3, :3] - S[:3, :3]).max() * radius < 0.003
                for S in out):
             continue
         out.append(T)
