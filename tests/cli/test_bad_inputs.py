@@ -79,6 +79,7 @@ CASES: list[tuple[str, list[str], str]] = [
     ("bench-methods-empty", ["bench", "--methods", ","], "--methods"),
     ("bench-executor-unknown", ["bench", "--executor", "dask"], "dask"),
     ("bench-ray-address-without-ray", ["bench", "--ray-address", "auto"], "--executor ray"),
+    ("bench-ray-address-malformed", ["bench", "--executor", "ray", "--ray-address", "not an address"], "address"),
     ("bench-results-dir", ["bench", "--results", "DIR"], "not a regular file"),
     ("bench-results-unwritable", ["bench", "--results", "UNWRITABLE/r.jsonl"], "cannot write"),
     ("bench-results-garbage", ["bench", "--results", "GARBAGE"], "not valid JSON"),
