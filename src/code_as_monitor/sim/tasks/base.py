@@ -46,9 +46,6 @@ class Task:
 
     ee_kind: ClassVar[str] = "suction"
     instruction: ClassVar[str] = ""
-    proactive_confirmation: ClassVar[str] = "events"
-    """What confirms a proactive alarm in a counterfactual rollout (``bench.counterfactual``): ``"events"``,
-    a predicted failure event (a toppling tower); ``"task_failure"``, the open-loop plan ends and the task fails."""
 
     def __init__(self, config: TaskConfig) -> None:
         self.config = config

@@ -162,7 +162,8 @@ class StackInOrder(Task):
     def disturbances(self, seed: int = 0) -> list[Disturbance]:
         out: list[Disturbance] = []
         if self.config.p > 0:
-            out.append(DropConfig(p=self.config.p, check_hz=self.config.drop_check_hz).build([seed, 1]))
+            out.append(DropConfig(p=self.config.p, check_hz=self.config.drop_check_hz,
+                                  landing_tol=self.config.xy_tol_cm / 100.0).build([seed, 1]))
         if self.config.q > 0:
             out.append(PlacementNoiseConfig(q=self.config.q).build([seed, 2]))
         return out

@@ -41,8 +41,9 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # grasp, during (proactive): the object stays where it lies until it is between the fingers; a
     # 2 cm slide means the fingers will close on nothing (the pen is 1.2 cm wide).
     "steady": {"max_disp": 0.02, "max_dist": 0.03},
-    # grasp, upon: the part's centre is at the grasp point (within 3 cm) and lifted above 5 cm.
-    "lifted": {"max_dist": 0.03, "min_z": 0.05},
+    # grasp, upon: the part's centre is at the grasp point (within 3 cm) and rose 5 cm with it since the grasp
+    # began (the grasp lifts the pen from the table to 22 cm).
+    "lifted": {"max_dist": 0.03, "min_rise": 0.05},
     # reorient/insert, during: the held part's centre stays within 4 cm of the grasp point.
     "gripped": {"max_dist": 0.04},
     # reorient, upon: the pen axis within 15 degrees of vertical ("near vertical", as the paper's pan).
