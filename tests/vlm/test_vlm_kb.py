@@ -9,8 +9,9 @@ from code_as_monitor.core import Element
 from code_as_monitor.core.errors import VLMError
 from code_as_monitor.planning import ConstraintGenerator, MonitorCoder, basic_check, legend_specs
 from code_as_monitor.vlm.backend import KBBackendConfig, make_backend
+from code_as_monitor.vlm.grammar import parse
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.families.stack import tower_order
+from code_as_monitor.vlm.kb.families.stack_goal import understand as stack_understand
 from code_as_monitor.vlm.kb.planner import infer_objects
 from code_as_monitor.vlm.kb.registry import all_thresholds
 from code_as_monitor.vlm.kb.shared.feedback import classify
@@ -134,9 +135,12 @@ def test_feedback_categories():
 
 def test_tower_order_reads_colours_in_order():
     objs = ["blue_block", "red_block", "green_block"]
-    assert tower_order("stack: blue at the bottom, then red, then green", objs) == ("blue_block", "red_block",
-                                                                                    "green_block")
-    assert tower_order("stack green on red, blue on top", objs)[-1] == "blue_block"
+
+    def tower(text: str) -> tuple[str, ...]:
+        return stack_understand(parse(text), objs).tower
+
+    assert tower("stack: blue at the bottom, then red, then green") == ("blue_block", "red_block", "green_block")
+    assert tower("stack green on red, blue on top") == ("red_block", "green_block", "blue_block")
 
 
 # --- programs on constructed states --------------------------------------------------------------
@@ -308,5 +312,8 @@ def test_kb_is_deterministic_and_honest_about_itself():
 
 def test_kb_unknown_instruction_is_a_clear_error():
     gen, _ = gen_coder()
-    with pytest.raises(VLMError, match="no rule for instruction"):
+    with pytest.raises(VLMError, match="did not understand 'fold', 'towel'") as info:
         gen.next_subgoal("fold the towel in half", IMG, ["towel", "table"])
+    for task in ("stack-in-order", "sweep-half", "rope-close-square", "slot-pen", "stow-book", "pour-tea",
+                 "open-drawer"):
+        assert task in str(info.value)

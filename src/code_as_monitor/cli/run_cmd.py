@@ -4,6 +4,8 @@
     cam run stack-in-order --q 2 --tracker sim
     cam run sweep-half --backend openai --model gpt-4o
     cam run stack-in-order --backend openai --base-url http://localhost:8000/v1 --model qwen2-vl --api-key-env none
+    cam run stack-in-order --instruction "stack red on top of green on top of blue"
+    cam run sweep-half --instruction "push 10 blocks into the zone"
 
 Writes a fresh runs/<id>/ with episode.mp4, prompts/, programs/, events.jsonl, ground_truth.jsonl and
 summary.json. The default backend `kb` is a rule-based stand-in for a VLM (not a VLM).
@@ -30,6 +32,10 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--api-key-env", default=None,
                    help="environment variable holding the API key (default OPENAI_API_KEY; 'none' for none)")
     p.add_argument("--cassette", type=v.input_file, default=None, help="JSONL cassette (replay backend)")
+    add_server_options(p)
+    p.add_argument("--instruction", default=None,
+                   help="the instruction for the agent (default: the task's own); the task's goal and success "
+                        "check follow it, e.g. --instruction \"stack red on top of green on top of blue\"")
     p.add_argument("--segmenter", default="sim", help="segmenter: sim (ground-truth masks, default), color, http")
     p.add_argument("--tracker", default="lk", help="tracker: lk (OpenCV Lucas-Kanade, default), sim (oracle)")
     p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
@@ -38,6 +44,33 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--runs", type=v.output_dir, default="runs", help="parent of the run directory (default runs/)")
     p.add_argument("--max-replans", type=v.count(0), default=30, help="failed subgoals allowed (default 30)")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
+
+
+def add_server_options(p: argparse.ArgumentParser) -> None:
+    """Options of a real model server (the openai backend), shared by run, demo, bench and plan."""
+    p.add_argument("--timeout", type=v.positive, default=None,
+                   help="seconds a model request may take before it is given up and closed (openai; default 120; "
+                        "a CPU server needs minutes)")
+    p.add_argument("--max-retries", type=v.count(0), default=None,
+                   help="retries on 429/5xx/connection errors (openai; default 3)")
+    p.add_argument("--max-tokens", type=v.count(1), default=None,
+                   help="longest answer, tokens (openai; default 2048; prompt + this must fit the server's context)")
+    p.add_argument("--no-images", action="store_true", help="send no images (openai; for a text-only model)")
+    p.add_argument("--structured", choices=("auto", "json_schema", "json_object", "off"), default=None,
+                   help="structured output asked of the server (openai; default auto: JSON schema, falling back "
+                        "to prompt-only JSON)")
+
+
+def server_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The openai backend options given on the command line."""
+    out: dict[str, Any] = {}
+    for key, val in (("timeout_s", args.timeout), ("max_retries", args.max_retries),
+                     ("max_tokens", args.max_tokens), ("structured", args.structured)):
+        if val is not None:
+            out[key] = val
+    if args.no_images:
+        out["images"] = False
+    return out
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -60,12 +93,21 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         params["p"] = args.p
     if args.q is not None:
         params["q"] = args.q
+    if args.instruction is not None:
+        if not args.instruction.strip():
+            raise ConfigError("--instruction is empty")
+        params["instruction"] = args.instruction
     backend_options: dict[str, Any] = {}
+    server = server_options(args)
     if args.backend == "openai":
         for key, val in (("base_url", args.base_url), ("model", args.model), ("api_key_env", args.api_key_env)):
             if val is not None:
                 backend_options[key] = val
-    elif args.backend == "replay":
+        backend_options.update(server)
+    elif server:
+        raise ConfigError(f"--timeout/--max-retries/--max-tokens/--no-images/--structured apply to the openai "
+                          f"backend, not {args.backend!r}")
+    if args.backend == "replay":
         if args.cassette is None:
             raise ConfigError("--backend replay needs --cassette PATH")
         backend_options["cassette"] = str(args.cassette)

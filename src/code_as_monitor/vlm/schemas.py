@@ -148,3 +148,16 @@ def parse_generator_output(data: dict[str, Any], context: dict[str, Any] | None 
 def generator_json_schema() -> dict[str, Any]:
     """JSON schema of the answer (documentation and structured-output servers)."""
     return GeneratorOutput.model_json_schema()
+
+
+class ProgramOutput(BaseModel):
+    """The monitor coder's answer when the server takes a JSON schema: the program's source in one field."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    program: str = Field(min_length=1, description="the Python source of every check_<id>(E, H, t) function")
+
+
+def program_json_schema() -> dict[str, Any]:
+    """JSON schema of the coder's structured answer."""
+    return ProgramOutput.model_json_schema()

@@ -39,6 +39,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name, tilt
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.reading import Reading, read_placement
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # From the sizes in sim/assets/book.urdf and bookshelf.urdf, never fitted to evaluation outcomes. Metres, radians.
@@ -99,24 +100,39 @@ class BookGoal:
     target: str
 
 
-def _about_book(s: str) -> bool:
-    return "book" in s and "shelf" in s
+VERBS = ("put", "stow", "shelve", "insert", "stand", "slide", "pick", "grasp")
+MODIFIERS = ("upright", "up", "in")
+HEADS = ("book", "shelf", "slot")
+DOING = "stows the book upright in the bookshelf's slot"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool({"book", "shelf"} & ins.heads) or "shelve" in ins.verbs
 
 
 def understand(ins: Instruction, objects: list[str]) -> BookGoal | None:
     """The book and shelf grounded on ``objects``; None when the instruction is not about them."""
-    if not _about_book(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
-    book = next((o for o in names if o == "book" or o.endswith("_book")), "")
-    shelf = next((o for o in names if "shelf" in o), "")
-    return BookGoal(book, shelf) if book and shelf else None
+    r = Reading(ins, "stow-book", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers(MODIFIERS, DOING)
+    for k in r.links(("of",), lambda p: p.head == "shelf"):
+        if k.a is not None and ins.resolve(k.a).head == "slot":
+            r.use_link(k)  # "the slot of the bookshelf"
+    for k in ins.links:
+        if k.kind == "on" and ins.resolve(k.b).head == "shelf" and "top" in k.words:
+            r.refuse(f"the book goes into the shelf's slot, not {k.words!r} it")
+    book, shelf = read_placement(r, objects, item=("book",), item_obj=lambda o: o == "book" or o.endswith("_book"),
+                                 place=("shelf", "slot"), place_obj=lambda o: "shelf" in o, preps=("into", "on", "to"),
+                                 what="book", where="bookshelf", place_optional="shelve" in ins.verbs)
+    r.finish()
+    return BookGoal(book, shelf)
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The stow-book scene's objects, or None."""
-    return ["book", "bookshelf", "table"] if _about_book(ins.lower) else None
-
+    return ["book", "bookshelf", "table"] if claims(ins) else None
 
 
 def _cover(obj: str) -> dict[str, str]:

@@ -34,6 +34,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.reading import Reading, read_placement, scene_names
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # Physical tolerances from the object sizes in sim/assets (pen 14 cm long, 1.2 cm wide; the holder's
@@ -74,23 +75,37 @@ class PenGoal:
     target: str
 
 
-def _about_pen(s: str) -> bool:
-    return "pen" in s and "holder" in s
+VERBS = ("put", "insert", "drop", "stand", "pick", "grasp", "stow", "slide")
+MODIFIERS = ("tip_down", "upright", "down", "in")
+HEADS = ("pen", "holder", "pencil", "marker")
+DOING = "puts the pen into the pen holder, tip first"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool(set(HEADS) & ins.heads)
 
 
 def understand(ins: Instruction, objects: list[str]) -> PenGoal | None:
     """The pen and holder grounded on ``objects``; None when the instruction is not about them."""
-    if not _about_pen(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
-    pen = next((o for o in names if o == "pen" or o.endswith("_pen")), "")
-    holder = next((o for o in names if "holder" in o), "")
-    return PenGoal(pen, holder) if pen and holder else None
+    r = Reading(ins, "slot-pen", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers(MODIFIERS, DOING)
+    for p in r.phrases(lambda p: p.head in ("pencil", "marker")):
+        r.refuse(f"the kb's pen rule moves a pen, not {p.text!r}")
+    names = scene_names(objects)
+    holder_words = ("holder", "cup", "pot") if not any("tea" in o for o in names) else ("holder",)
+    pen, holder = read_placement(r, objects, item=("pen",), item_obj=lambda o: o == "pen" or o.endswith("_pen"),
+                                 place=holder_words, place_obj=lambda o: "holder" in o, preps=("into", "to"),
+                                 what="pen", where="pen holder")
+    r.finish()
+    return PenGoal(pen, holder)
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The slot-pen scene's objects, or None."""
-    return ["pen", "pen_holder", "table"] if _about_pen(ins.lower) else None
+    return ["pen", "pen_holder", "table"] if claims(ins) else None
 
 
 # --- constraint builders ---------------------------------------------------------------------------

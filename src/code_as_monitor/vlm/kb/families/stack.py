@@ -1,6 +1,8 @@
 # ruff: noqa: E501  (the template bodies are generated code, kept one statement per line)
 """kb family ``stack`` (task ``stack-in-order``): stack coloured blocks with the suction cup, bottom first.
 
+Reading the instruction (which blocks, in which order): :mod:`.stack_goal`.
+
 Plan: the bottom block stays on the table; for each next level ``pick`` the block, then ``place_on`` the one
 below -> done. Elements: the suction cup's tip (``robot/tip``) and each block as a point (its centre).
 
@@ -15,18 +17,15 @@ Thresholds are the paper's "manually initialized thresholds for common tasks in 
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
 from typing import Any
 
-from code_as_monitor.vlm.grammar import Instruction
+from code_as_monitor.vlm.kb.families.stack_goal import StackGoal, scene, task_params, understand
 from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import TIP, answer, constraint, done, nice, whole
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import classify, mentioned
 from code_as_monitor.vlm.kb.shared.grip import held
 
-COLOURS = ("red", "green", "blue", "yellow", "orange", "purple", "pink", "white", "black", "brown", "gray", "cyan")
 BLOCK_SIZE = 0.04
 """Nominal edge of a stacking block (m); the height tests below are expressed in block sizes."""
 
@@ -61,52 +60,6 @@ THRESHOLDS: dict[str, dict[str, float]] = {
 
 def _thr(kind: str) -> dict[str, float]:
     return dict(THRESHOLDS[kind])
-
-
-@dataclass(frozen=True)
-class StackGoal:
-    """The tower to build: block names, bottom first."""
-
-    tower: tuple[str, ...]
-
-
-# --- understanding -----------------------------------------------------------------------------------------
-def tower_order(instruction: str, objects: list[str]) -> tuple[str, ...]:
-    """Blocks bottom-first: colours in the order the instruction names them, grounded on ``objects``.
-
-    "red at the bottom, then green, then blue" -> (red_block, green_block, blue_block). A colour named
-    with "at the top" / "on top" is moved last.
-    """
-    s = instruction.lower()
-    named = sorted((m.start(), c) for c in COLOURS for m in re.finditer(rf"\b{c}\b", s))
-    order: list[str] = []
-    for _, c in named:
-        obj = next((o for o in objects if o.lower().startswith(f"{c}_") or o.lower() == c), None)
-        if obj is not None and obj not in order:
-            order.append(obj)
-    for c in COLOURS:
-        if re.search(rf"\b{c}\b[^,.;]*\b(at the top|on top)\b", s):
-            obj = next((o for o in order if o.lower().startswith(c)), None)
-            if obj is not None:
-                order.remove(obj)
-                order.append(obj)
-    return tuple(order)
-
-
-def understand(ins: Instruction, objects: list[str]) -> StackGoal | None:
-    """The tower asked for, grounded on ``objects``; None when the instruction is not about stacking."""
-    s = ins.lower
-    if not ("stack" in s or "tower" in s):
-        return None
-    tower = tower_order(ins.text, [o for o in objects if "/" not in o])
-    return StackGoal(tower) if len(tower) >= 2 else None
-
-
-def scene(ins: Instruction) -> list[str] | None:
-    """``<colour>_block`` for each colour named, in order, plus the table; None when no colour is named."""
-    s = ins.lower
-    colours = [c for _, c in sorted((s.find(c), c) for c in COLOURS if re.search(rf"\b{c}\b", s))]
-    return [f"{c}_block" for c in colours] + ["table"] if colours else None
 
 
 # --- constraint builders -----------------------------------------------------------------------------------
@@ -344,6 +297,7 @@ FAMILY = TaskFamily(
     understand=understand,
     next_subgoal=next_stack,
     scene=scene,
+    task_params=task_params,
     thresholds=THRESHOLDS,
     templates={"attached": attached, "still": still, "centred": centred, "resting": resting,
                "released": released, "tower": tower},
