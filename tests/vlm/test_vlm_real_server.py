@@ -14,7 +14,8 @@ What it needs, built or reused here (nothing is downloaded at run time beyond th
   ``pip wheel --no-deps llama-cpp-python==0.3.36 -w ~/.cache/code-as-monitor/wheels``;
 - the server is started from that environment on a free 127.0.0.1 port and stopped at the end.
 
-The server's text-only model gets no images (``cam plan`` without ``--image`` sends none).
+The server's text-only model gets no images (``cam plan`` without ``--image`` sends none). The packages are
+also the optional extra ``local-llm`` (pinned in constraints.txt) for a server in the project's own venv.
 """
 
 from __future__ import annotations

@@ -94,6 +94,15 @@ class SandboxError(CamError):
     """The sandbox worker could not be started or talked to."""
 
 
+class ObservationError(CamError, ValueError):
+    """An observation handed to the monitor is unusable (a view missing, time going backwards)."""
+
+
+class RecordingError(CamError, ValueError):
+    """A recording (a ROS 2 bag) cannot be read or written: missing, truncated or corrupt, a topic
+    missing, an unknown encoding, sizes that do not match."""
+
+
 class SimError(CamError):
     """The simulator was asked for something it cannot do."""
 

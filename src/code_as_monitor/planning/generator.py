@@ -23,7 +23,7 @@ from code_as_monitor.vlm.schemas import (
     ALWAYS_PRESENT,
     SUCCESS_FEEDBACK,
     GeneratorOutput,
-    generator_json_schema,
+    generator_response_schema,
     parse_generator_output,
 )
 from code_as_monitor.vlm.skills import DEFAULT_SKILLS, skills_markdown
@@ -33,7 +33,7 @@ from code_as_monitor.vlm.usage import UsageMeter
 log = logging.getLogger(__name__)
 
 PURPOSE = "constraint_generator"
-GENERATOR_SCHEMA = generator_json_schema()
+GENERATOR_SCHEMA = generator_response_schema()
 """The answer's JSON schema, for servers with structured outputs."""
 __all__ = ["PURPOSE", "SUCCESS_FEEDBACK", "ConstraintGenerator"]
 
