@@ -11,6 +11,7 @@ A separate test mounts a real read-only file system (where it is allowed) for th
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -24,7 +25,7 @@ from code_as_monitor.cli.main import main
 PLAN = "stack the blocks: red at the bottom, then green, then blue"
 EP = '{"kind": "episode", "condition": "stack-p0", "method": "cam", "seed": 0, "episode": 0, "success": true}'
 
-CASES: list[tuple[str, list[str], str]] = [
+CASES: list = [
     # (id, argv, a substring the one line must hold)
     ("run-seed-negative", ["run", "stack-in-order", "--seed", "-1"], "--seed"),
     ("run-seed-text", ["run", "stack-in-order", "--seed", "abc"], "--seed"),
@@ -107,6 +108,17 @@ CASES: list[tuple[str, list[str], str]] = [
     ("report-fewkeys", ["report", "FEWKEYS"], "lacks"),
     ("report-out-is-file", ["report", "FEWKEYS", "--out", "FILE"], "not a directory"),
     ("report-out-unwritable", ["report", "FEWKEYS", "--out", "UNWRITABLE/rep"], "cannot write"),
+    ("record-out-exists", ["record", "stack-in-order", "--out", "FILE"], "already exists"),
+    ("record-out-unwritable", ["record", "stack-in-order", "--out", "UNWRITABLE/ep.mcap"], "cannot write"),
+    ("record-out-missing", ["record", "stack-in-order"], "--out"),
+    ("record-seed-negative", ["record", "stack-in-order", "--seed", "-1", "--out", "ep.mcap"], "--seed"),
+    ("record-depth-encoding-unknown", ["record", "stack-in-order", "--out", "ep.mcap", "--depth-encoding", "8UC3"],
+     "--depth-encoding"),
+    ("monitor-bag-missing", ["monitor", "none.mcap"], "no such file"),
+    ("monitor-topics-missing", ["monitor", "DIR", "--topics", "none.yaml"], "no such file"),
+    ("monitor-rate-unknown", ["monitor", "DIR", "--rate", "warp"], "--rate"),
+    pytest.param("monitor-bag-garbage", ["monitor", "GARBAGE"], "cannot read bag",
+                 marks=pytest.mark.skipif(importlib.util.find_spec("rosbags") is None, reason="needs the ros extra")),
     ("unknown-command", ["frobnicate"], "frobnicate"),
 ]
 
@@ -144,12 +156,23 @@ def _resolve(argv: list[str], root: Path) -> list[str]:
     return [subs.get(a, a.replace("UNWRITABLE", unwritable)) for a in argv]
 
 
+def _case(c):
+    return c.values if hasattr(c, "values") else c
+
+
+def _param(c):
+    if hasattr(c, "values"):  # a pytest.param with marks
+        return pytest.param(*c.values[1:], marks=c.marks, id=c.values[0])
+    return pytest.param(*c[1:], id=c[0])
+
+
 def test_the_table_is_large_and_covers_every_command() -> None:
     assert len(CASES) >= 40
-    assert {c[1][0] for c in CASES} >= {"run", "demo", "sim", "plan", "elements", "bench", "report"}
+    assert {_case(c)[1][0] for c in CASES} >= {"run", "demo", "sim", "plan", "elements", "bench", "report", "record",
+                                               "monitor"}
 
 
-@pytest.mark.parametrize(("argv", "needle"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+@pytest.mark.parametrize(("argv", "needle"), [_param(c) for c in CASES])
 def test_bad_input_is_one_line_exit_2_nothing_left(workdir: Path, capsys: pytest.CaptureFixture[str],
                                                    argv: list[str], needle: str) -> None:
     before = _snapshot(workdir)
@@ -178,7 +201,9 @@ def _can_mount_read_only() -> bool:
     ["sim", "stack-in-order", "--video", "RO/v.mp4"],
     ["bench", "--results", "RO/r.jsonl"],
     ["report", "RO/r.jsonl"],
-], ids=["run-runs", "sim-video", "bench-results", "report-default-out"])
+    ["record", "stack-in-order", "--out", "RO/ep.mcap"],
+    ["monitor", "RO/r.jsonl", "--runs", "RO/runs"],
+], ids=["run-runs", "sim-video", "bench-results", "report-default-out", "record-out", "monitor-runs"])
 def test_read_only_file_system(tmp_path: Path, argv: list[str]) -> None:
     """The output flags on a real read-only mount (a private bind mount, invisible outside the test)."""
     ro = tmp_path / "ro"
