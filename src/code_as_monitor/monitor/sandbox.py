@@ -1,12 +1,12 @@
 """Run monitor programs in fresh, kernel-confined worker processes with a per-frame deadline.
 
-The control process never executes generated code. :class:`Sandbox` keeps *spare* workers started in
-the background by a spawner thread (:mod:`.pool`, :mod:`.process`, :mod:`.worker`): fresh interpreters
-that have imported what they need and confined themselves (:mod:`.confine`: seccomp filter,
-``no_new_privs``, new user and network namespaces where the kernel allows them). Every
-:meth:`Sandbox.load` hands the program to a spare, so no state carries from one program to the next,
-and the spawner starts the next spare. Then :meth:`Sandbox.evaluate` makes exactly one round trip per
-frame for all checks.
+The control process never executes generated code. :class:`Sandbox` keeps *spare* workers started
+(:mod:`.pool`, :mod:`.process`, :mod:`.worker`): fresh interpreters that have imported what they need
+and confined themselves (:mod:`.confine`: seccomp filter, ``no_new_privs``, new user and network
+namespaces where the kernel allows them). Every :meth:`Sandbox.load` hands the program to a spare, so no
+state carries from one program to the next, and starts the next spare once the program is loaded; after
+a kill, a spawner thread starts it. Then :meth:`Sandbox.evaluate` makes exactly one round trip per frame
+for all checks.
 
 The control process trusts nothing a worker sends: replies are bounded in size and parsed against a
 fixed layout (:mod:`.protocol`), reasons are truncated and stripped of addresses, non-finite margins
