@@ -81,23 +81,26 @@ def _alive(procs: dict[int, str]) -> list[int]:
     return [pid for pid, start in procs.items() if pid in table and table[pid][1] == start]
 
 
+def _finished(results) -> int:
+    return results.read_text().count('"kind":"episode"') if results.exists() else 0
+
+
 def _kill_bench(tmp_path, sig: int, executor: list[str], want_children: int) -> list[int]:
     """Start a tiny `cam bench`, wait for its workers, send ``sig`` to the parent alone and return the pids
     of its former descendants still alive 30 s later (killing them, so a failure leaks nothing)."""
+    results = tmp_path / "r.jsonl"
     args = [sys.executable, "-m", "code_as_monitor.cli.main", "bench", "--methods", "open-loop", "--conditions",
-            "stack-p0", "--seeds", "1", "--episodes", "8", "--no-videos", "--results", str(tmp_path / "r.jsonl"),
-            *executor]
+            "stack-p0", "--seeds", "1", "--episodes", "12", "--no-videos", "--results", str(results), *executor]
     proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     kids: dict[int, str] = {}
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
             kids.update(_descendants(proc.pid))
-            if len(_alive(kids)) >= want_children:
+            if len(_alive(kids)) >= want_children and _finished(results) >= 1:  # workers mid-sweep
                 break
             time.sleep(0.2)
-        assert proc.poll() is None and len(_alive(kids)) >= want_children, "the bench ended before its workers ran"
-        time.sleep(1.0)
+        assert proc.poll() is None and _finished(results) >= 1, "the bench ended before it was killed"
         kids.update(_descendants(proc.pid))
         os.kill(proc.pid, sig)
         proc.wait(60)
