@@ -123,7 +123,8 @@ def run_closed_loop(
     coder = MonitorCoder(backend, usage=generator.usage)
     painter = Painter(make_segmenter(SegmenterConfig.from_name(cfg.segmenter, **cfg.segmenter_options)))
     tracker = make_tracker(TrackerConfig.from_name(cfg.tracker, **cfg.tracker_options))
-    world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz)
+    # Views are rendered when read: the oracle tracker reads poses, not pixels, so its frames cost no render.
+    world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True)
 
     events = EventLog(run_dir / "events.jsonl") if run_dir is not None else None
     video = VideoWriter(run_dir / "episode.mp4", fps=cfg.camera_hz) if (run_dir is not None and cfg.video) else None
