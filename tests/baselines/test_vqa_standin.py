@@ -14,7 +14,7 @@ from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.constraints import Constraint, ElementSpec, Phase
 from code_as_monitor.core.errors import VLMOutputError
 from code_as_monitor.core.observation import Observation, RobotState, View
-from code_as_monitor.vlm.kb.feedback import classify
+from code_as_monitor.vlm.kb.shared.feedback import classify
 
 RGB = {"red": (217, 38, 38), "green": (38, 191, 51), "blue": (38, 77, 230), "brick": (200, 70, 20),
        "yellow": (242, 217, 51)}

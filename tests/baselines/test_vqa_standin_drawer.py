@@ -23,7 +23,7 @@ from code_as_monitor.baselines.vqa_standin_drawer import look
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, RobotState
 from code_as_monitor.sim.env import make_env
-from code_as_monitor.vlm.kb import drawer as kb_drawer
+from code_as_monitor.vlm.kb.families import drawer as kb_drawer
 
 OBJ = "drawer_cabinet"
 C = {c["id"].split("_")[0]: Constraint.from_dict(c) for c in kb_drawer.grasp(OBJ) + kb_drawer.pull(OBJ)}

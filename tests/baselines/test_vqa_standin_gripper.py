@@ -18,8 +18,8 @@ from code_as_monitor.baselines.vqa_standin import VQAStandin
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, RobotState
 from code_as_monitor.sim.env import make_env
-from code_as_monitor.vlm.kb import book as kb_book
-from code_as_monitor.vlm.kb import manip
+from code_as_monitor.vlm.kb.families import book as kb_book
+from code_as_monitor.vlm.kb.families import pen as manip
 
 PEN = {c["id"].split("_")[0]: Constraint.from_dict(c)
        for c in manip.grasp("pen") + manip.reorient("pen") + manip.insert("pen", "pen_holder")}

@@ -22,7 +22,7 @@ from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, RobotState
 from code_as_monitor.sim.env import make_env
 from code_as_monitor.sim.tasks.pour_tea import SPOUT_END
-from code_as_monitor.vlm.kb import tea as kb_tea
+from code_as_monitor.vlm.kb.families import tea as kb_tea
 
 POT, CUP = "teapot", "teacup"
 CUP_AT = (0.47, -0.16, 0.0)

@@ -12,8 +12,8 @@ import pytest
 from code_as_monitor.cli.main import main
 from code_as_monitor.planning import ConstraintGenerator
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.tasks import infer_objects
-from code_as_monitor.vlm.kb.thresholds import THRESHOLDS
+from code_as_monitor.vlm.kb.planner import infer_objects
+from code_as_monitor.vlm.kb.registry import all_thresholds
 
 STACK = "stack the blocks: red at the bottom, then green, then blue"
 
@@ -28,7 +28,7 @@ def test_plan_kb_prints_subgoals_and_constraints(capsys):
         assert line in out
     assert "during attached_green_block (reactive)" in out
     assert "upon   centred_green_block_on_red_block (proactive)" in out
-    assert f"max_offset={THRESHOLDS['centred']['max_offset']:g}" in out and "usage: 5 calls" in out
+    assert f"max_offset={all_thresholds()['centred']['max_offset']:g}" in out and "usage: 5 calls" in out
 
 
 def test_plan_kb_json_with_code(capsys):

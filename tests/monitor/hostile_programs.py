@@ -114,7 +114,7 @@ CORPUS: list[tuple[str, str, str, str]] = [
     ("ok_is_str", _a("return 'yes', 'x'"), "fault", "ok must be a bool"),
     ("ok_is_int", _a("return 1, 'x'"), "fault", "ok must be a bool"),
     ("reason_not_str", _a("return True, 5"), "fault", "reason must be a str"),
-    ("nan_margin", _a("return True, 'x', float('nan')"), "fault", "margin is NaN"),
+    ("nan_margin", _a("return True, 'x', float('nan')"), "fault", "margin is not finite"),
     ("margin_not_number", _a("return True, 'x', 'big'"), "fault", "margin must be a float"),
     ("return_array", _a("return np.array([True])"), "fault", "returned ndarray"),
     ("ok_is_array", _a("return np.array([True, False]), 'x'"), "fault", "ok must be a bool"),

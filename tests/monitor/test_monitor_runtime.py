@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from hostile_programs import GOOD
 
-from code_as_monitor.core.constraints import Phase, Verdict
+from code_as_monitor.core.constraints import Constraint, Phase, Verdict
 from code_as_monitor.core.errors import ProgramError, SandboxError
 from code_as_monitor.monitor import (
     MonitorRuntime,
@@ -38,7 +39,7 @@ def test_start_step_and_classify(constraints, scene):
 
 
 def test_rejected_program_drops_the_previous_one(constraints, scene):
-    with MonitorRuntime(deadline_s=0.1, n_perturbations=8) as rt:
+    with MonitorRuntime(deadline_s=0.1, n_perturbations=32) as rt:
         rt.start(GOOD, constraints, scene)
         with pytest.raises(ProgramError, match="'while'"):
             rt.start(GOOD + "\ndef f(x):\n    while x:\n        pass\n", constraints, scene)
@@ -56,3 +57,42 @@ def test_faults_are_never_violations_nor_satisfactions():
     assert not upon_satisfied(verdicts) and len(unmet_upon(verdicts)) == 1 and len(faults(verdicts)) == 2
     assert upon_satisfied([_v("a", Phase.DURING, False)])  # no upon check: vacuously satisfied
     assert any_during_violated([_v("a", Phase.DURING, False), _v("b", Phase.UPON, True)])
+
+
+def test_non_finite_points_make_elements_stale_never_a_pass(scene):
+    cs = [Constraint("a", "block stays on the tip", Phase.DURING, element_ids=[0, 1]),
+          Constraint("b", "block lifted", Phase.UPON, element_ids=[1]),
+          Constraint("c", "tip above the table", Phase.DURING, element_ids=[0])]
+    src = GOOD + "\n\ndef check_c(E, H, t):\n    z = E[0][0, 2]\n    return bool(z > 0.0), f'tip at {z:.2f} m', z\n"
+    with MonitorRuntime(deadline_s=0.2, n_perturbations=32) as rt:
+        rt.start(src, cs, scene)
+        for bad in (np.nan, np.inf, -np.inf):
+            block = scene[1].copy()
+            block[2, 1] = bad
+            a, b, c = rt.step({0: scene[0], 1: block}, None, None, 1.0)
+            assert rt.stale_elements == {1}
+            for v in (a, b):
+                assert v.fault and not v.ok and v.reason.startswith("stale:"), v
+            assert c.ok and not c.fault  # it does not read element 1
+            assert not any_during_violated([a, b, c]) and not upon_satisfied([a, b, c])
+        H = {i: np.repeat(p[None], 3, axis=0) for i, p in scene.items()}
+        H[0][0, 0, 2] = np.nan  # an old frame of the tip
+        verdicts = rt.step(scene, H, np.array([0.8, 0.9, 1.0]), 1.0)
+        assert rt.stale_elements == {0} and all(v.fault for v in verdicts if v.constraint_id in ("a", "c"))
+        verdicts = rt.step(scene, None, None, float("nan"))
+        assert all(v.fault and v.reason.startswith("stale:") for v in verdicts)
+        verdicts = rt.step(scene, None, None, 1.1)  # finite again: verdicts again
+        assert rt.stale_elements == set() and not any(v.fault for v in verdicts)
+
+
+def test_non_finite_margin_or_non_bool_ok_is_a_fault(scene):
+    cs = [Constraint("a", "x", Phase.DURING), Constraint("b", "y", Phase.UPON)]
+    src = ("def check_a(E, H, t):\n    return True, 'inf margin', math.inf\n\n"
+           "def check_b(E, H, t):\n    return 1, 'one'\n")
+    from code_as_monitor.monitor.sandbox import Sandbox
+
+    with Sandbox() as sb:
+        sb.load(src, cs)
+        a, b = sb.evaluate(scene, None, None, 0.0)
+    assert a.fault and not a.ok and "not finite" in a.reason
+    assert b.fault and not b.ok and "ok must be a bool" in b.reason

@@ -10,9 +10,10 @@ from code_as_monitor.core.errors import VLMError
 from code_as_monitor.planning import ConstraintGenerator, MonitorCoder, basic_check, legend_specs
 from code_as_monitor.vlm.backend import KBBackendConfig, make_backend
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.feedback import classify
-from code_as_monitor.vlm.kb.tasks import infer_objects, tower_order
-from code_as_monitor.vlm.kb.thresholds import THRESHOLDS
+from code_as_monitor.vlm.kb.families.stack import tower_order
+from code_as_monitor.vlm.kb.planner import infer_objects
+from code_as_monitor.vlm.kb.registry import all_thresholds
+from code_as_monitor.vlm.kb.shared.feedback import classify
 
 STACK = "stack the blocks: red at the bottom, then green, then blue"
 SWEEP = "sweep half of the blocks into the zone"
@@ -66,7 +67,7 @@ def test_stack_constraints_phases_and_parts():
     assert by_id["still_green_block"].proactive
     cen = by_id["centred_blue_block_on_green_block"]
     assert cen.phase.value == "upon" and cen.proactive
-    assert cen.thresholds["max_offset"] == pytest.approx(THRESHOLDS["centred"]["max_offset"])
+    assert cen.thresholds["max_offset"] == pytest.approx(all_thresholds()["centred"]["max_offset"])
     assert "tower_green_block_on_red_block" in by_id
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from code_as_monitor.planning import ConstraintGenerator
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.tasks import infer_objects
+from code_as_monitor.vlm.kb.planner import infer_objects
 
 BOOK = "put the book upright into the bookshelf"
 

@@ -9,7 +9,7 @@ import pytest
 
 from code_as_monitor.planning import ConstraintGenerator
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.tasks import infer_objects
+from code_as_monitor.vlm.kb.planner import infer_objects
 
 DRAWER = "open the drawer by pulling its handle"
 CAB = "drawer_cabinet"
@@ -54,11 +54,12 @@ def test_drawer_recovery_subgoals(after, feedback, skill):
 
 
 def test_other_instructions_are_not_drawer_tasks():
-    from code_as_monitor.vlm.kb import drawer
+    from code_as_monitor.vlm.grammar import parse
+    from code_as_monitor.vlm.kb.families import drawer
 
-    assert drawer.understand("put the pen into the pen holder", ["pen", "pen_holder"]) is None
-    assert drawer.understand("open the drawer", ["table"]) is None  # nothing to ground it on
-    assert drawer.understand(DRAWER, [CAB, "table"]) == (CAB, "handle")
+    assert drawer.understand(parse("put the pen into the pen holder"), ["pen", "pen_holder"]) is None
+    assert drawer.understand(parse("open the drawer"), ["table"]) is None  # nothing to ground it on
+    assert drawer.understand(parse(DRAWER), [CAB, "table"]) == drawer.DrawerGoal(CAB, "handle")
 
 
 validate = pytest.importorskip("code_as_monitor.monitor.validate")

@@ -7,8 +7,8 @@ import pytest
 
 from code_as_monitor.planning import ConstraintGenerator, MonitorCoder
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.manip import failed_kind
-from code_as_monitor.vlm.kb.tasks import infer_objects
+from code_as_monitor.vlm.kb.planner import infer_objects
+from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 
 validate = pytest.importorskip("code_as_monitor.monitor.validate")
 coverage = pytest.importorskip("code_as_monitor.monitor.coverage")

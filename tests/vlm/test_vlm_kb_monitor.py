@@ -6,7 +6,7 @@ import pytest
 
 from code_as_monitor.planning import ConstraintGenerator, MonitorCoder
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.tasks import infer_objects
+from code_as_monitor.vlm.kb.planner import infer_objects
 
 validate = pytest.importorskip("code_as_monitor.monitor.validate")
 coverage = pytest.importorskip("code_as_monitor.monitor.coverage")

@@ -10,8 +10,8 @@ import pytest
 
 from code_as_monitor.planning import ConstraintGenerator
 from code_as_monitor.vlm.kb import KBBackend
-from code_as_monitor.vlm.kb.tasks import infer_objects
-from code_as_monitor.vlm.kb.tea import CARRY_ON
+from code_as_monitor.vlm.kb.families.tea import CARRY_ON
+from code_as_monitor.vlm.kb.planner import infer_objects
 
 TEA = "pour the tea from the teapot into the teacup"
 

@@ -277,9 +277,11 @@ class Agent:
             except PerceptionError as exc:
                 policy.halt()
                 return rec("error", f"perception failed: {exc}", attempts["n"])
-            # A check that reads a stale element (lost by the tracker, not yet re-acquired) has no
-            # verdict this frame: it can neither raise an alarm nor complete the subgoal.
+            # A check that reads a stale element (lost by the tracker, not yet re-acquired, or with
+            # non-finite points) has no verdict this frame: it can neither raise an alarm nor complete
+            # the subgoal.
             stale_ids = {i for i, st in view_state[2].stale.items() if np.any(st)}
+            stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
             unknown = {cid for cid, ids in uses.items() if ids & stale_ids}
             if unknown != unknown_before:
                 self.emit("verdicts_unknown", t=env.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))

@@ -67,7 +67,7 @@ if TYPE_CHECKING:
     from code_as_monitor.baselines.vqa_standin_gripper import Gripper
 
 DRAWER_KEYS = ("drawerstill", "handlegrip", "jawshut", "handled", "pulled", "drawerfreed")
-"""Constraint kinds (id prefixes) of the drawer family (``vlm/kb/drawer.py``)."""
+"""Constraint kinds (id prefixes) of the drawer family (``vlm/kb/families/drawer.py``)."""
 PART_COLORS: dict[str, str] = {"frame": "brown", "drawer": "blue", "handle": "brass"}
 """Colour (key of ``HSV_RANGES``) of each cabinet part (``sim/assets/drawer_cabinet.urdf``)."""
 HANDLE_LENGTH = 0.10

@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     from code_as_monitor.baselines.vqa_standin_gripper import Gripper
 
 TEA_KEYS = ("grasped", "lifted", "gripped", "freed", "potlevel", "pourtilt", "draintilt", "spoutover")
-"""Constraint kinds (id prefixes) of the tea family (``vlm/kb/tea.py``)."""
+"""Constraint kinds (id prefixes) of the tea family (``vlm/kb/families/tea.py``)."""
 PART_COLORS: dict[str, str] = {"lid": "red", "spout": "blue", "handle": "pothandle", "cup": "green"}
 """Colour (key of ``HSV_RANGES``) of each part (``sim/assets/teapot.urdf``, ``teacup.urdf``)."""
 MIN_PIXELS = 12

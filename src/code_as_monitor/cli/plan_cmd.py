@@ -123,7 +123,7 @@ def _format_subgoal(i: int, sg: Any) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     from code_as_monitor.core.errors import ConfigError
     from code_as_monitor.planning import ConstraintGenerator, MonitorCoder, basic_check
-    from code_as_monitor.vlm.kb.tasks import infer_objects
+    from code_as_monitor.vlm.kb.planner import infer_objects
     from code_as_monitor.vlm.schemas import SUCCESS_FEEDBACK
 
     objects = [o.strip() for o in args.objects.split(",") if o.strip()] if args.objects else infer_objects(

@@ -57,6 +57,11 @@ class VLMOutputError(VLMError, ValueError):
     """The model's answer could not be parsed or validated after the allowed re-asks."""
 
 
+class InstructionError(VLMError, ValueError):
+    """An instruction the kb (or the task goal it maps to) cannot understand or honour; the message names the
+    words it did not understand, or what it cannot do, and the task families it knows."""
+
+
 class ReplayMissError(VLMError, KeyError):
     """A replay cassette has no entry for a request; the message names the request hash."""
 

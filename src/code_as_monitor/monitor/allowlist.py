@@ -11,7 +11,7 @@ from code_as_monitor.geometry.helpers import MONITOR_HELPERS
 SAFE_BUILTINS: frozenset[str] = frozenset({
     "abs", "min", "max", "len", "range", "float", "int", "bool", "str", "round", "sum", "any", "all",
     "enumerate", "zip", "sorted", "reversed", "list", "tuple", "dict", "set", "isinstance", "divmod",
-    "print", "True", "False", "None",
+    "print", "repr", "format", "True", "False", "None",
 })
 """Builtins the worker namespace provides (``print`` is a no-op there)."""
 
@@ -21,7 +21,7 @@ BANNED_NAMES: frozenset[str] = frozenset({
     "exec", "eval", "open", "getattr", "setattr", "delattr", "hasattr", "globals", "locals", "vars",
     "compile", "__import__", "__builtins__", "input", "breakpoint", "help", "dir", "type", "object",
     "super", "memoryview", "bytearray", "bytes", "classmethod", "staticmethod", "property", "id",
-    "exit", "quit", "format", "iter", "next", "callable", "issubclass", "os", "sys", "ctypes",
+    "exit", "quit", "iter", "next", "callable", "issubclass", "os", "sys", "ctypes",
     "subprocess", "builtins", "importlib",
 })
 
@@ -70,3 +70,17 @@ VALUE_ATTRS: frozenset[str] = frozenset({
     "t",
 })
 """Attributes allowed on any value that is not ``np``, ``np.linalg``, ``math`` or ``H``."""
+
+DTYPES: frozenset[str] = frozenset({
+    "float", "int", "bool", "complex", "float64", "float32", "int64", "int32", "bool_", "complex128", "f8", "f4",
+    "i8", "i4", "?", "b1",
+})
+"""What a ``dtype=`` argument or ``.astype(...)`` may name: the builtins ``float``/``int``/``bool``/``complex``,
+``np.<name>`` or a string literal from this set. Never objects, records, bytes or datetimes."""
+
+METHOD_MAX_POSITIONAL: dict[str, int] = {
+    "sum": 1, "mean": 1, "std": 1, "var": 1, "prod": 1, "cumsum": 1, "min": 1, "max": 1, "argmin": 1,
+    "argmax": 1, "any": 1, "all": 1, "round": 1, "dot": 1, "clip": 2, "astype": 1, "tolist": 0, "flatten": 0,
+    "ravel": 0, "nonzero": 0, "argsort": 1, "squeeze": 1,
+}
+"""Positional arguments a method may take (beyond these, numpy methods take ``dtype``/``out``)."""

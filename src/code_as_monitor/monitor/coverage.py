@@ -5,11 +5,15 @@ this process), evaluates it on the current element state and on perturbations of
 (:func:`~code_as_monitor.monitor.perturb.make_probes`), and collects
 
 * checks that raise, return a malformed result or overrun the deadline, with the input that did it;
-* branches no input reaches (with their lines);
-* ``during`` checks that already fail on the unperturbed starting state (the subgoal would halt at once).
+* checks whose answer never changes: True on every input (they can never report a violation) or
+  False on every input (they can never be satisfied);
+* ``during`` checks that already fail on the unperturbed starting state (the subgoal would halt at once);
+* branches no input reaches (with their lines).
 
-Any of these raises :class:`CoverageError` (a :class:`~code_as_monitor.core.errors.ProgramError`) whose
-message goes back to the coder for a bounded number of regenerations.
+Any of the first three raises :class:`CoverageError` (a :class:`~code_as_monitor.core.errors.ProgramError`)
+whose message goes back to the coder for a bounded number of regenerations. Unreached branches alone
+do not: a defensive guard (``if pts.shape[0] < 3: return False, ...``) that no perturbation reaches is
+reported in :attr:`CoverageReport.unreached`, not rejected (unless ``require_full_coverage``).
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ class CoverageReport:
         faults: "check: reason (on input)" for every distinct exception / malformed result / overrun.
         unreached: the branches no input reached (in functions that were entered at least once).
         failing_at_start: "check: reason" of ``during`` checks already violated on the starting state.
+        outcomes: check function name -> (times it returned True, times False), faults not counted.
+        constant: "check: ..." of checks that returned the same answer on every input.
     """
 
     branches: list[Branch]
@@ -50,10 +56,13 @@ class CoverageReport:
     faults: list[str] = field(default_factory=list)
     unreached: list[Branch] = field(default_factory=list)
     failing_at_start: list[str] = field(default_factory=list)
+    outcomes: dict[str, tuple[int, int]] = field(default_factory=dict)
+    constant: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        return not (self.faults or self.unreached or self.failing_at_start)
+        """Nothing that rejects the program (unreached branches are only reported)."""
+        return not (self.faults or self.failing_at_start or self.constant)
 
     @property
     def fraction(self) -> float:
@@ -66,14 +75,19 @@ class CoverageReport:
         if self.faults:
             lines.append("the program fails on some inputs:")
             lines += [f"  - {f}" for f in self.faults[:MAX_LISTED]]
+        if self.constant:
+            lines.append("checks whose answer never changes over the inputs (a condition that cannot fail, "
+                         "or cannot hold):")
+            lines += [f"  - {c}" for c in self.constant]
         if self.failing_at_start:
             lines.append("'during' checks that already fail on the starting state (the subgoal would stop at once):")
             lines += [f"  - {f}" for f in self.failing_at_start]
+        head = "path coverage failed:" if lines else "path coverage passed"
         if self.unreached:
             lines.append(f"branches no input reached ({len(self.covered)}/{len(self.branches)} covered over "
-                         f"{self.n_inputs} inputs); remove dead code or fix the conditions:")
+                         f"{self.n_inputs} inputs; reported, not a reason to reject by itself):")
             lines += [f"  - {b.describe()}" for b in self.unreached[:MAX_LISTED]]
-        return "path coverage failed:\n" + "\n".join(lines) if lines else "path coverage passed"
+        return head + ("\n" + "\n".join(lines) if lines else "")
 
 
 class CoverageError(ProgramError):
@@ -98,7 +112,7 @@ def check_path_coverage(
     n_perturbations: int = 96,
     seed: int = 0,
     deadline_s: float | None = None,
-    require_full_coverage: bool = True,
+    require_full_coverage: bool = False,
 ) -> CoverageReport:
     """Drive every branch of every check with the current state and perturbations of it.
 
@@ -116,12 +130,13 @@ def check_path_coverage(
         seed: seed of the perturbations (deterministic).
         deadline_s: per-input deadline; default: 5x the sandbox deadline, at least 100 ms (coverage
             runs once per subgoal, not in the control loop, and instrumentation costs a little).
-        require_full_coverage: False tolerates unreached branches (still listed in the report).
+        require_full_coverage: True also rejects a program for unreached branches alone.
     Returns:
         The report, when nothing is wrong.
     Raises:
-        CoverageError: exceptions, malformed results, overruns, unreached branches or ``during``
-            checks failing at the start; the message lists them with the inputs that caused them.
+        CoverageError: exceptions, malformed results, overruns, checks with a constant answer, or
+            ``during`` checks failing at the start (and unreached branches with
+            ``require_full_coverage``); the message lists them with the inputs that caused them.
         ProgramError: the program does not pass static validation or does not load.
     """
     tree = validate_program(source, constraints)
@@ -139,6 +154,7 @@ def check_path_coverage(
         report = CoverageReport(branches=branches)
         seen: set[tuple[str, str]] = set()
         overruns = 0
+        outcomes = {c.id: (0, 0) for c in constraints}
         probes = make_probes(elements, history, history_t, t, n_perturbations, seed)
         for k, probe in enumerate(probes):
             restarts = sandbox.n_restarts
@@ -155,6 +171,9 @@ def check_path_coverage(
                 continue
             report.covered.update(sandbox.last_marks)
             for v in verdicts:
+                if not v.fault:
+                    n_true, n_false = outcomes[v.constraint_id]
+                    outcomes[v.constraint_id] = (n_true + v.ok, n_false + (not v.ok))
                 if v.fault and (v.constraint_id, v.reason) not in seen:
                     seen.add((v.constraint_id, v.reason))
                     report.faults.append(f"check_{v.constraint_id}: {v.reason.removeprefix('fault: ')} "
@@ -165,11 +184,20 @@ def check_path_coverage(
             report.faults.append(f"stopped after {overruns} overruns/crashes ({report.n_inputs} of {len(probes)} "
                                  "inputs tried); branch coverage not assessed")
             report.covered.clear()
+        else:
+            report.outcomes = {f"check_{cid}": n for cid, n in outcomes.items()}
+            for cid, (n_true, n_false) in outcomes.items():
+                if n_true and not n_false:
+                    report.constant.append(f"check_{cid}: returned True on all {n_true} inputs it answered, so "
+                                           "it can never report a violation")
+                elif n_false and not n_true:
+                    report.constant.append(f"check_{cid}: returned False on all {n_false} inputs it answered, "
+                                           "so it can never be satisfied")
         entered = {b.function for b in branches if b.kind == "entry" and b.id in report.covered}
         report.unreached = [b for b in branches if b.id not in report.covered and b.function in entered]
     finally:
         if own:
             sandbox.close()
-    if report.faults or report.failing_at_start or (report.unreached and require_full_coverage):
+    if not report.ok or (report.unreached and require_full_coverage):
         raise CoverageError(report)
     return report

@@ -12,9 +12,19 @@
 
 Faults (program errors, overruns, worker restarts) are reported in the verdicts with ``fault=True`` and
 never count as violations or satisfactions.
+
+Non-finite input: an element whose current points or history hold NaN or inf is *stale* for that frame,
+like an element the tracker lost. It is not shown to the program at all, every check whose constraint
+names it gets a fault verdict whose reason starts with ``"stale:"`` (no verdict: neither a violation nor
+a satisfaction), and :attr:`MonitorRuntime.stale_elements` lists it so the agent can treat it as it
+treats tracker loss. History frames whose time is not finite are dropped; a non-finite ``t`` makes every
+element stale.
 """
 
 from __future__ import annotations
+
+import logging
+import math
 
 import numpy as np
 
@@ -23,6 +33,8 @@ from code_as_monitor.core.errors import SandboxError
 from code_as_monitor.monitor.coverage import CoverageReport, check_path_coverage
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
+
+log = logging.getLogger(__name__)
 
 
 def during_violations(verdicts: list[Verdict]) -> list[Verdict]:
@@ -46,8 +58,47 @@ def unmet_upon(verdicts: list[Verdict]) -> list[Verdict]:
 
 
 def faults(verdicts: list[Verdict]) -> list[Verdict]:
-    """Verdicts where the program itself failed (exception, malformed result, deadline, restart)."""
+    """Verdicts where the program itself failed (exception, malformed result, deadline, restart), or that
+    had no verdict because an element they read was stale (reason ``"stale: ..."``)."""
     return [v for v in verdicts if v.fault]
+
+
+def _finite(a: np.ndarray) -> bool:
+    return bool(np.isfinite(a).all())
+
+
+def split_nonfinite(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
+                    history_t: np.ndarray | None, t: float
+                    ) -> tuple[set[int], dict[int, np.ndarray], dict[int, np.ndarray] | None, np.ndarray | None]:
+    """Find elements with NaN/inf points (now or in their history) and the frame without them.
+
+    Args:
+        elements: element id -> (k, 3) current points.
+        history: element id -> (T, k, 3), or None.
+        history_t: (T,) seconds, or None.
+        t: current time, seconds.
+    Returns:
+        (stale ids, elements without them, history without them and without frames whose time is not
+        finite, the matching times). Inputs that are all finite come back as they are.
+    """
+    if not math.isfinite(t):
+        ids = {int(i) for i in elements} | {int(i) for i in (history or {})}
+        return ids, {}, ({} if history is not None else None), history_t
+    bad = {int(i) for i, p in elements.items() if not _finite(np.asarray(p, dtype=np.float64))}
+    if history is not None:
+        if history_t is not None:
+            ht = np.asarray(history_t, dtype=np.float64).reshape(-1)
+            keep = np.isfinite(ht)
+            if not keep.all():
+                history = {i: np.asarray(h)[keep] for i, h in history.items()}
+                history_t = ht[keep]
+        bad |= {int(i) for i, h in history.items() if not _finite(np.asarray(h, dtype=np.float64))}
+    if not bad:
+        return bad, elements, history, history_t
+    elements = {i: p for i, p in elements.items() if int(i) not in bad}
+    if history is not None:
+        history = {i: h for i, h in history.items() if int(i) not in bad}
+    return bad, elements, history, history_t
 
 
 class MonitorRuntime:
@@ -60,19 +111,29 @@ class MonitorRuntime:
         memory_mb: memory headroom of a new sandbox's worker, MiB.
         n_perturbations: perturbed inputs of path coverage.
         seed: seed of the perturbations.
-        require_full_coverage: False accepts programs with unreached branches.
+        require_full_coverage: True rejects programs for unreached branches alone (by default they are
+            reported in the coverage report and logged, not rejected).
+        allow_unconfined: run generated code even where the kernel confinement cannot be installed (an
+            explicit opt-out, see :class:`~code_as_monitor.monitor.sandbox.Sandbox`).
+
+    Attributes:
+        stale_elements: ids of the elements with non-finite points at the last :meth:`step`.
     """
 
     def __init__(self, sandbox: Sandbox | None = None, deadline_s: float = 0.020, memory_mb: int = 512,
-                 n_perturbations: int = 96, seed: int = 0, require_full_coverage: bool = True) -> None:
+                 n_perturbations: int = 96, seed: int = 0, require_full_coverage: bool = False,
+                 allow_unconfined: bool | None = None) -> None:
         self._own = sandbox is None
-        self.sandbox = sandbox if sandbox is not None else Sandbox(deadline_s=deadline_s, memory_mb=memory_mb)
+        # two spares: path coverage and the program itself each take a fresh worker at subgoal start
+        self.sandbox = sandbox if sandbox is not None else Sandbox(
+            deadline_s=deadline_s, memory_mb=memory_mb, spares=2, allow_unconfined=allow_unconfined)
         self.n_perturbations = n_perturbations
         self.seed = seed
         self.require_full_coverage = require_full_coverage
         self.constraints: list[Constraint] = []
         self.source: str | None = None
         self.report: CoverageReport | None = None
+        self.stale_elements: set[int] = set()
 
     def start(self, source: str, constraints: list[Constraint], elements: dict[int, np.ndarray],
               history: dict[int, np.ndarray] | None = None, history_t: np.ndarray | None = None,
@@ -98,6 +159,9 @@ class MonitorRuntime:
         report = check_path_coverage(source, constraints, elements, history, history_t, t, self.sandbox,
                                      n_perturbations=self.n_perturbations, seed=self.seed,
                                      require_full_coverage=self.require_full_coverage)
+        if report.unreached:
+            log.info("monitor program accepted with %d unreached branch(es): %s", len(report.unreached),
+                     "; ".join(b.describe() for b in report.unreached[:5]))
         self.sandbox.load(source, constraints)
         self.source, self.constraints, self.report = source, list(constraints), report
         return report
@@ -112,11 +176,29 @@ class MonitorRuntime:
             history_t: (T,) seconds, or None.
             t: current time, seconds.
         Returns:
-            One verdict per constraint, in constraint order.
+            One verdict per constraint, in constraint order. Checks of constraints that name an element
+            with non-finite points get a ``"stale: ..."`` fault (see the module docstring).
         """
         if self.source is None:
             raise SandboxError("MonitorRuntime.step called without a started program")
-        return self.sandbox.evaluate(elements, history, history_t, t)
+        stale, elements, history, history_t = split_nonfinite(elements, history, history_t, t)
+        self.stale_elements = stale
+        if not stale:
+            return self.sandbox.evaluate(elements, history, history_t, t)
+        t_safe = float(t) if math.isfinite(t) else 0.0
+        verdicts = self.sandbox.evaluate(elements, history, history_t, t_safe) if elements else []
+        by_id = {v.constraint_id: v for v in verdicts}
+        out = []
+        for c in self.constraints:
+            hit = sorted(stale & {int(i) for i in c.element_ids}) if math.isfinite(t) else sorted(stale)
+            v = by_id.get(c.id)
+            if hit or v is None or (v.fault and "KeyError" in v.reason):  # it read an element left out
+                what = f"element(s) {hit or sorted(stale)}" if math.isfinite(t) else "the current time"
+                out.append(Verdict(c.id, c.phase, False, f"stale: {what} not finite (NaN or inf); no verdict "
+                                   "this frame", math.nan, t, True))
+            else:
+                out.append(v)
+        return out
 
     def close(self) -> None:
         """Stop the sandbox worker if this runtime created it."""

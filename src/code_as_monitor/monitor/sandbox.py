@@ -1,58 +1,46 @@
-"""Run monitor programs in a persistent, resource-limited worker process with a per-call deadline.
+"""Run monitor programs in fresh, kernel-confined worker processes with a per-frame deadline.
 
-The control process never executes generated code. :class:`Sandbox` starts
-:mod:`code_as_monitor.monitor.worker` as a fresh interpreter (``python -I``, minimal environment, no
-inherited secrets) connected by a socket pair, sends the program once per subgoal (:meth:`Sandbox.load`)
-and then makes exactly one round trip per frame for all checks (:meth:`Sandbox.evaluate`).
+The control process never executes generated code. :class:`Sandbox` keeps a *spare* worker started in
+the background (:mod:`.process`, :mod:`.worker`): a fresh interpreter that has imported what it needs
+and confined itself (:mod:`.confine`: seccomp filter, ``no_new_privs``, new user and network
+namespaces where the kernel allows them). Every :meth:`Sandbox.load` hands the program to a spare, so no
+state carries from one program to the next, and starts the next spare. Then :meth:`Sandbox.evaluate`
+makes exactly one round trip per frame for all checks.
 
-When a round trip overruns its deadline the worker is killed, every check of that frame gets a fault
-verdict, and a replacement is started *in the background* with the same program: until it is ready,
-:meth:`Sandbox.evaluate` answers at once with "restarting" faults. A worker that dies (segfault, CPU
-limit) is handled the same way. The control loop never waits past the deadline.
+The control process trusts nothing a worker sends: replies are bounded in size and parsed against a
+fixed layout (:mod:`.protocol`), reasons are truncated and stripped of addresses, non-finite margins
+are faults, and a late, malformed or missing reply makes every check of that frame a fault verdict
+(never an exception): the worker is killed and the spare takes over with the same program. Until it has
+loaded, :meth:`Sandbox.evaluate` answers at once with "restarting" faults. No call waits past its
+deadline (plus the few milliseconds of starting the next spare).
+
+Where confinement cannot be installed the worker says why and generated code does not run, unless the
+caller opts out explicitly: ``Sandbox(allow_unconfined=True)`` or ``CAM_ALLOW_UNCONFINED=1``.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import logging
 import math
 import os
 import pickle
-import socket
-import subprocess
-import sys
 import time
 import weakref
-from multiprocessing.connection import Connection
-from pathlib import Path
 
 import numpy as np
 
-import code_as_monitor
 from code_as_monitor.core.constraints import Constraint, Verdict
 from code_as_monitor.core.errors import ProgramError, SandboxError, ShapeMismatchError
+from code_as_monitor.monitor import protocol
+from code_as_monitor.monitor.process import LateError, WorkerProcess
+from code_as_monitor.monitor.protocol import ReplyError
 from code_as_monitor.monitor.validate import validate_program
 
 log = logging.getLogger(__name__)
 
-_BOOT = ("import sys; sys.path.insert(0, sys.argv[1]); from code_as_monitor.monitor.worker import main; "
-         "main(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]))")
-_SRC_ROOT = str(Path(code_as_monitor.__file__).resolve().parent.parent)
-_WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-               "PATH": os.defpath, "LC_ALL": "C.UTF-8"}
 MAX_START_FAILURES = 3
-
-
-class _ReplyUnpickler(pickle.Unpickler):
-    """Replies come from a process running untrusted code: allow plain data only, never a global."""
-
-    def find_class(self, module: str, name: str):
-        raise pickle.UnpicklingError(f"worker reply refers to {module}.{name}")
-
-
-def _loads_reply(data: bytes) -> tuple:
-    return _ReplyUnpickler(io.BytesIO(data)).load()
+ALLOW_UNCONFINED_ENV = "CAM_ALLOW_UNCONFINED"
+_CONFINED = protocol.SECCOMP | protocol.NO_NEW_PRIVS
 
 
 def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
@@ -84,100 +72,178 @@ def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
     return tuple((i, p.shape[0]) for i, p in E), tuple((i, h.shape[0], h.shape[1]) for i, h in Hs), data
 
 
-def _reap(proc: subprocess.Popen) -> None:
-    with contextlib.suppress(OSError):
-        proc.kill()
+def _kill_all(workers: list[WorkerProcess]) -> None:
+    for w in workers:
+        w.kill()
 
 
 class Sandbox:
-    """A persistent worker process that evaluates one monitor program per subgoal.
+    """Fresh confined workers, one per loaded program, with a spare always starting in the background.
 
     Args:
         deadline_s: wall-clock budget of one :meth:`evaluate` round trip, seconds (default 20 ms).
-        memory_mb: address space the worker may allocate beyond its size after start-up, MiB.
+        memory_mb: address space a worker may allocate beyond its size after start-up, MiB.
         cpu_s: lifetime CPU seconds of one worker (``RLIMIT_CPU``, a backstop; it is then replaced).
-        start_timeout_s: how long :meth:`start` and :meth:`load` wait for a fresh worker.
+        start_timeout_s: how long :meth:`start` and :meth:`load` wait for a spare to be ready.
         load_timeout_s: how long :meth:`load` waits for the program's module-level code.
+        spares: workers kept started beyond the one running the program (>= 1).
+        confine: install the kernel confinement in every worker (False needs ``allow_unconfined``).
+        allow_unconfined: run generated code even where the confinement cannot be installed (an explicit
+            opt-out; default: the ``CAM_ALLOW_UNCONFINED`` environment variable is ``1``).
 
     Use as a context manager, or call :meth:`start` and :meth:`close`.
     """
 
     def __init__(self, deadline_s: float = 0.020, memory_mb: int = 512, cpu_s: int = 600,
-                 start_timeout_s: float = 20.0, load_timeout_s: float = 2.0) -> None:
-        if not deadline_s > 0 or memory_mb < 32 or cpu_s < 1:
-            raise SandboxError(
-                f"bad sandbox limits: deadline_s={deadline_s!r}, memory_mb={memory_mb!r}, cpu_s={cpu_s!r}")
+                 start_timeout_s: float = 20.0, load_timeout_s: float = 2.0, spares: int = 1,
+                 confine: bool = True, allow_unconfined: bool | None = None) -> None:
+        if not deadline_s > 0 or memory_mb < 32 or cpu_s < 1 or spares < 1:
+            raise SandboxError(f"bad sandbox limits: deadline_s={deadline_s!r}, memory_mb={memory_mb!r}, "
+                               f"cpu_s={cpu_s!r}, spares={spares!r}")
+        if allow_unconfined is None:
+            allow_unconfined = os.environ.get(ALLOW_UNCONFINED_ENV, "") == "1"
+        if not confine and not allow_unconfined:
+            raise SandboxError("confine=False runs generated code without kernel confinement; pass "
+                               "allow_unconfined=True as well to opt out explicitly")
         self.deadline_s = float(deadline_s)
         self.memory_mb = int(memory_mb)
         self.cpu_s = int(cpu_s)
         self.start_timeout_s = float(start_timeout_s)
         self.load_timeout_s = float(load_timeout_s)
-        self._proc: subprocess.Popen | None = None
-        self._conn: Connection | None = None
-        self._ready = False  # the worker said "ready" and acknowledged the current program
-        self._awaiting: list[str] = []  # replies still expected before the worker is ready
+        self.n_spares = int(spares)
+        self.confine = bool(confine)
+        self.allow_unconfined = bool(allow_unconfined)
+        self._active: WorkerProcess | None = None
+        self._spares: list[WorkerProcess] = []
+        self._dying: list[WorkerProcess] = []
         self._program: tuple[str, list[Constraint], bool] | None = None
         self._constraints: list[Constraint] = []
+        self._max_reply = 8192
+        self._reasons: list[tuple[bytes, str]] = []
         self._seq = 0
         self._start_failures = 0
         self.n_restarts = 0
         self.n_branches = 0
         self.last_marks: list[int] = []
-        self._finalizer = weakref.finalize(self, Sandbox._kill_all, [])
+        self.last_load_s = math.nan
+        self._all: list[WorkerProcess] = []
+        self._finalizer = weakref.finalize(self, _kill_all, self._all)
 
-    # --- lifecycle --------------------------------------------------------------------------------
-    @staticmethod
-    def _kill_all(procs: list[subprocess.Popen]) -> None:
-        for p in procs:
-            _reap(p)
-
-    def _spawn(self) -> None:
-        """Start a worker without waiting for it; queue the current program if there is one."""
-        parent, child = socket.socketpair()
+    # --- workers ----------------------------------------------------------------------------------
+    def _spawn(self) -> WorkerProcess:
         try:
-            proc = subprocess.Popen(
-                [sys.executable, "-I", "-c", _BOOT, _SRC_ROOT, str(child.fileno()), str(self.memory_mb),
-                 str(self.cpu_s)],
-                pass_fds=(child.fileno(),), env=_WORKER_ENV, stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, close_fds=True,
-            )
+            w = WorkerProcess(self.memory_mb, self.cpu_s, self.confine)
         except OSError as exc:
-            parent.close()
             raise SandboxError(f"cannot start the sandbox worker: {exc}") from exc
-        finally:
-            child.close()
-        self._proc = proc
-        self._finalizer.detach()
-        self._finalizer = weakref.finalize(self, Sandbox._kill_all, [proc])
-        self._conn = Connection(parent.detach())
-        self._ready = False
-        self._awaiting = ["ready"]
-        if self._program is not None:
-            self._send(("load", *self._program))
-            self._awaiting.append("loaded")
+        self._all.append(w)
+        return w
+
+    def _fill_spares(self) -> None:
+        self._collect()
+        while len(self._spares) < self.n_spares:
+            self._spares.append(self._spawn())
+
+    def _retire(self, w: WorkerProcess | None) -> None:
+        if w is not None:
+            w.kill()
+            self._dying.append(w)
+
+    def _collect(self) -> None:
+        """Reap retired workers that have exited (never waits)."""
+        for w in [w for w in self._dying if w.reap(0.0)]:
+            self._dying.remove(w)
+            self._all.remove(w)
+
+    def _take_spare(self) -> WorkerProcess:
+        if not self._spares:
+            self._spares.append(self._spawn())
+        ready = [w for w in self._spares if w.ready]
+        w = ready[0] if ready else self._spares[0]
+        self._spares.remove(w)
+        return w
+
+    def _absorb(self, w: WorkerProcess, deadline: float) -> None:
+        """Read the replies ``w`` still owes until the deadline (raises :class:`LateError` at it)."""
+        while w.awaiting:
+            data = w.recv(deadline)
+            if w.awaiting[0] == "ready":
+                self._on_ready(w, data)
+            else:
+                ok, value = protocol.decode_load(data)
+                if not ok:
+                    raise ProgramError(f"monitor program failed to load in the sandbox: {value}")
+                w.n_branches = int(value)
+            w.awaiting.pop(0)
+
+    def _on_ready(self, w: WorkerProcess, data: bytes) -> None:
+        pid, flags, boot_ms, confine_ms, notes = protocol.decode_ready(data)
+        if pid != w.pid:
+            raise ReplyError(f"ready record names pid {pid}, the worker is {w.pid}")
+        w.confinement, w.boot_ms, w.confine_ms = (flags, notes), boot_ms, confine_ms
+        w.ready_s = time.perf_counter() - w.started
+        if self.confine and flags & _CONFINED != _CONFINED and not self.allow_unconfined:
+            raise SandboxError(
+                f"the sandbox worker could not be confined by the kernel ({notes}); generated code does not "
+                f"run unconfined unless you opt out explicitly: Sandbox(allow_unconfined=True), "
+                f"MonitorRuntime(allow_unconfined=True) or {ALLOW_UNCONFINED_ENV}=1")
+        if self.confine and flags & _CONFINED != _CONFINED:
+            log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
+
+    def _ready_worker(self, deadline: float) -> WorkerProcess:
+        """A spare that has said ready (started if need be), replacing ones that die on the way up."""
+        while True:
+            w = self._take_spare()
+            try:
+                self._absorb(w, deadline)
+                self._start_failures = 0
+                return w
+            except SandboxError:
+                self._retire(w)
+                raise
+            except LateError:
+                self._retire(w)
+                raise SandboxError(f"sandbox worker not ready after {self.start_timeout_s:.1f} s") from None
+            except (EOFError, OSError, ReplyError) as exc:
+                why = f"{type(exc).__name__}: {exc}; {w.how_it_ended()}"
+                self._retire(w)
+                self._start_failures += 1
+                if self._start_failures >= MAX_START_FAILURES:
+                    raise SandboxError(f"sandbox worker failed to start {self._start_failures} times: {why}") from None
 
     def start(self) -> Sandbox:
-        """Start the worker and wait until it is ready (raises SandboxError after ``start_timeout_s``)."""
-        if self._proc is None:
-            self._spawn()
-        self._wait_ready(self.start_timeout_s)
+        """Make sure a spare is ready (and a replacement worker has reloaded the program).
+
+        Raises:
+            SandboxError: no worker came up within ``start_timeout_s``, or it could not be confined (and
+                the caller did not opt out).
+        """
+        deadline = time.perf_counter() + self.start_timeout_s
+        self._fill_spares()
+        w = self._ready_worker(deadline)
+        self._spares.insert(0, w)
+        for _ in range(MAX_START_FAILURES):
+            if self._program is None or (self._active is not None and self._active.ready):
+                break
+            if self._active is None:
+                self._replace("no worker")
+                continue
+            try:
+                self._absorb(self._active, deadline)
+            except LateError:
+                raise SandboxError(f"replacement worker not ready after {self.start_timeout_s:.1f} s") from None
+            except (EOFError, OSError, ReplyError, ProgramError) as exc:
+                self._replace(f"replacement worker did not reload the program ({type(exc).__name__})")
         return self
 
     def close(self) -> None:
-        """Stop the worker (politely, then by force)."""
-        proc, conn = self._proc, self._conn
-        self._proc, self._conn, self._ready = None, None, False
-        if conn is not None:
-            with contextlib.suppress(OSError):
-                conn.send_bytes(pickle.dumps(("exit",), protocol=5))
-            conn.close()
-        if proc is not None:
-            try:
-                proc.wait(timeout=0.5)
-            except subprocess.TimeoutExpired:
-                _reap(proc)
-                proc.wait()
-        self._finalizer.detach()
+        """Stop every worker (SIGKILL) and collect them."""
+        workers = [w for w in (self._active, *self._spares, *self._dying) if w is not None]
+        self._active, self._spares, self._dying = None, [], []
+        for w in workers:
+            w.kill()
+        for w in workers:
+            w.reap(timeout=5.0)
+        self._all.clear()
 
     def __enter__(self) -> Sandbox:
         return self.start()
@@ -187,80 +253,46 @@ class Sandbox:
 
     @property
     def worker_pid(self) -> int | None:
-        """Process id of the current worker (None when there is none)."""
-        return self._proc.pid if self._proc is not None else None
+        """Process id of the worker running the current program (None when there is none)."""
+        return self._active.pid if self._active is not None and not self._active.dead else None
 
-    def _kill_and_replace(self, why: str) -> None:
+    @property
+    def confinement(self) -> str:
+        """What confines the current (or next) worker, in words; "unknown" before one said ready."""
+        for w in (self._active, *self._spares):
+            if w is not None and w.confinement is not None:
+                return w.confinement[1]
+        return "unknown"
+
+    def _replace(self, why: str) -> None:
+        """Kill the active worker; a spare takes over the same program (loaded in the background)."""
         log.warning("sandbox worker replaced: %s", why)
-        if self._proc is not None:
-            _reap(self._proc)
-            # SIGKILL is immediate; reap without blocking (a late zombie is collected by Popen later)
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                self._proc.wait(timeout=0)
-        if self._conn is not None:
-            self._conn.close()
-        self._proc, self._conn, self._ready = None, None, False
+        self._retire(self._active)
+        self._active = None
         self.n_restarts += 1
-        self._spawn()
-
-    # --- messaging --------------------------------------------------------------------------------
-    def _send(self, msg: tuple) -> None:
-        assert self._conn is not None
-        self._conn.send_bytes(pickle.dumps(msg, protocol=5))
-
-    def _recv(self) -> tuple:
-        assert self._conn is not None
-        return _loads_reply(self._conn.recv_bytes())
-
-    def _progress(self, timeout: float) -> None:
-        """Consume start-up/load acknowledgements for at most ``timeout`` seconds."""
-        end = time.perf_counter() + timeout
-        while self._awaiting and self._conn is not None:
-            if not self._conn.poll(max(0.0, end - time.perf_counter())):
-                if self._proc is not None and self._proc.poll() is not None:
-                    self._start_failed(f"worker exited with code {self._proc.returncode} during start-up")
-                return
-            try:
-                reply = self._recv()
-            except (EOFError, OSError):
-                self._start_failed("worker closed its connection during start-up")
-                return
-            if reply[0] == "load_error":
-                raise ProgramError(f"monitor program failed to load in the sandbox: {reply[1]}")
-            if reply[0] != self._awaiting[0]:
-                raise SandboxError(f"unexpected worker reply {reply[0]!r}, expected {self._awaiting[0]!r}")
-            if reply[0] == "loaded":
-                self.n_branches = int(reply[1])
-            self._awaiting.pop(0)
-        self._ready = not self._awaiting
-        if self._ready:
-            self._start_failures = 0
-
-    def _start_failed(self, why: str) -> None:
-        self._start_failures += 1
-        if self._start_failures >= MAX_START_FAILURES:
-            if self._proc is not None:
-                _reap(self._proc)
-            if self._conn is not None:
-                self._conn.close()
-            self._proc, self._conn, self._ready = None, None, False
-            raise SandboxError(f"sandbox worker failed to start {self._start_failures} times: {why}")
-        self._kill_and_replace(why)
-
-    def _wait_ready(self, timeout: float) -> None:
-        end = time.perf_counter() + timeout
-        while not self._ready:
-            if self._proc is None:
-                self._spawn()
-            left = end - time.perf_counter()
-            if left <= 0:
-                self._kill_and_replace("start-up timed out")
-                raise SandboxError(f"sandbox worker not ready after {timeout:.1f} s")
-            self._progress(min(left, 0.05))
+        if self._program is None:
+            return
+        try:
+            w = self._take_spare()
+        except SandboxError as exc:  # cannot even start a process: try again on the next call
+            log.error("no sandbox worker could be started: %s", exc)
+            return
+        self._active = w
+        try:
+            w.send(pickle.dumps(("load", *self._program), protocol=5), time.perf_counter() + 0.05)
+            w.awaiting.append("loaded")
+            w.allow_reply(self._max_reply)
+        except (LateError, OSError):
+            self._retire(w)
+            self._active = None
+        try:
+            self._fill_spares()
+        except SandboxError as exc:
+            log.error("no spare sandbox worker could be started: %s", exc)
 
     # --- programs ---------------------------------------------------------------------------------
     def load(self, source: str, constraints: list[Constraint], *, coverage: bool = False) -> None:
-        """Validate ``source`` here, then compile and run its module level in the worker.
+        """Validate ``source`` here, then load it into a fresh worker (the previous one is killed).
 
         Args:
             source: monitor program (one ``check_<id>(E, H, t)`` per constraint).
@@ -269,30 +301,43 @@ class Sandbox:
                 :meth:`evaluate` call are then in :attr:`last_marks`.
         Raises:
             ProgramError: the program is rejected, fails to compile, or its module level fails/overruns.
+            SandboxError: no confined worker could be started.
         """
+        t0 = time.perf_counter()
         validate_program(source, constraints)
+        self._retire(self._active)
+        self._active, self._program, self._constraints = None, None, []
+        w = self._ready_worker(t0 + self.start_timeout_s)
+        self._max_reply = protocol.max_result_bytes(len(constraints), 10_000 if coverage else 0)
+        w.allow_reply(self._max_reply)
         try:
-            self._wait_ready(self.start_timeout_s)
-        except ProgramError:  # a replacement could not reload the previous program: drop it
-            self._program, self._awaiting, self._ready = None, [], True
+            w.send(pickle.dumps(("load", source, list(constraints), coverage), protocol=5),
+                   time.perf_counter() + self.load_timeout_s)
+            w.awaiting.append("loaded")
+            self._absorb(w, time.perf_counter() + self.load_timeout_s)
+        except ProgramError:
+            self._retire(w)
+            raise
+        except LateError:
+            self._retire(w)
+            raise ProgramError(f"monitor program's module-level code did not finish within "
+                               f"{self.load_timeout_s} s") from None
+        except (EOFError, OSError, ReplyError) as exc:
+            why = f"{type(exc).__name__}: {exc}; {w.how_it_ended()}"
+            self._retire(w)
+            raise ProgramError(f"monitor program failed to load in the sandbox: the worker {why}") from None
+        self._active = w
         self._program = (source, list(constraints), coverage)
         self._constraints = list(constraints)
-        self._send(("load", source, list(constraints), coverage))
-        self._awaiting = ["loaded"]
-        self._ready = False
-        try:
-            self._progress(self.load_timeout_s)
-        except ProgramError:
-            self._program, self._constraints, self._ready, self._awaiting = None, [], True, []
-            raise
-        if not self._ready:
-            self._program, self._constraints = None, []
-            self._kill_and_replace("program load timed out")
-            raise ProgramError(f"monitor program's module-level code did not finish within {self.load_timeout_s} s")
+        self._reasons = [(b"\0", "")] * len(constraints)
+        self.n_branches = w.n_branches
+        self.last_load_s = time.perf_counter() - t0
+        self._fill_spares()
 
     # --- evaluation -------------------------------------------------------------------------------
     def _faults(self, reason: str, t: float) -> list[Verdict]:
-        return [Verdict(c.id, c.phase, False, f"fault: {reason}", math.nan, t, True) for c in self._constraints]
+        reason = protocol.clean_text(f"fault: {reason}")
+        return [Verdict(c.id, c.phase, False, reason, math.nan, t, True) for c in self._constraints]
 
     def evaluate(self, elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
                  history_t: np.ndarray | None, t: float, *, deadline_s: float | None = None) -> list[Verdict]:
@@ -306,36 +351,47 @@ class Sandbox:
             deadline_s: override of the sandbox's deadline for this call.
         Returns:
             One :class:`Verdict` per constraint, in constraint order; ``fault=True`` when the program
-            failed (exception, malformed result, deadline, worker crash or restart).
+            failed (exception, malformed or non-finite result, deadline, worker crash or restart).
+            Whatever the worker does, this returns verdicts: it never raises because of a worker.
+        Raises:
+            SandboxError: called before :meth:`load`.
+            ShapeMismatchError: the inputs have the wrong shapes.
         """
         start = time.perf_counter()
-        deadline = self.deadline_s if deadline_s is None else float(deadline_s)
+        deadline = start + (self.deadline_s if deadline_s is None else float(deadline_s))
         if self._program is None:
             raise SandboxError("Sandbox.evaluate called before load()")
-        if not self._ready:
-            try:
-                self._progress(0.0)
-            except ProgramError as exc:  # a replacement that cannot reload the program
-                self._kill_and_replace(str(exc))
-                return self._faults(f"monitor worker could not be restarted: {exc}", t)
-            if not self._ready:
-                return self._faults("monitor worker is restarting", t)
+        t = float(t)
         layout_e, layout_h, data = pack(elements, history, history_t, t)
+        w = self._active
+        if w is None:
+            self._replace("no worker")
+            return self._faults("monitor worker is restarting", t)
+        if not w.ready:
+            try:
+                self._absorb(w, start)  # only what has already arrived
+            except LateError:
+                return self._faults("monitor worker is restarting", t)
+            except (EOFError, OSError, ReplyError, ProgramError, SandboxError) as exc:
+                self._replace(f"replacement failed: {type(exc).__name__}")
+                return self._faults(protocol.clean_text(f"monitor worker could not be restarted: {exc}"), t)
         self._seq += 1
         try:
-            self._send(("eval", self._seq, layout_e, layout_h, data, float(t)))
-            if not self._conn.poll(max(0.0, deadline - (time.perf_counter() - start))):
-                self._kill_and_replace(f"deadline {deadline * 1e3:.0f} ms exceeded")
-                return self._faults(f"deadline {deadline * 1e3:.0f} ms exceeded", t)
-            reply = self._recv()
+            w.send(pickle.dumps(("eval", self._seq, layout_e, layout_h, data, t), protocol=5), deadline)
+            reply = w.recv(deadline)
+            results, marks = protocol.decode_result(reply, self._seq, len(self._constraints), self.n_branches,
+                                                    self._reasons)
+        except LateError:
+            ms = (deadline - start) * 1e3
+            self._replace(f"deadline {ms:.0f} ms exceeded")
+            return self._faults(f"deadline {ms:.0f} ms exceeded", t)
+        except ReplyError as exc:
+            self._replace(f"malformed reply: {exc}")
+            return self._faults(f"monitor worker gave a malformed reply ({exc})", t)
         except (EOFError, OSError) as exc:
-            code = self._proc.poll() if self._proc is not None else None
-            how = f"signal {-code}" if code is not None and code < 0 else f"exit code {code}"
-            self._kill_and_replace(f"worker died ({how})")
+            how = w.how_it_ended(wait_s=0.005)  # a worker that closed its socket is usually exiting
+            self._replace(f"worker died ({how})")
             return self._faults(f"monitor worker died ({how}; {type(exc).__name__})", t)
-        if reply[0] != "result" or reply[1] != self._seq or reply[2] is None:
-            self._kill_and_replace(f"bad worker reply {reply[0]!r}")
-            return self._faults("monitor worker gave a malformed reply", t)
-        self.last_marks = list(reply[3] or ())
-        return [Verdict(c.id, c.phase, bool(ok), str(reason), float(margin), t, bool(fault))
-                for c, (ok, reason, margin, fault) in zip(self._constraints, reply[2])]
+        self.last_marks = marks
+        return [Verdict(c.id, c.phase, ok, reason, margin, t, fault)
+                for c, (ok, reason, margin, fault) in zip(self._constraints, results)]

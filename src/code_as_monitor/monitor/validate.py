@@ -13,7 +13,10 @@ A monitor program is untrusted model output. Before it ever reaches the sandbox 
 * attributes: allow-listed members of ``np``, ``np.linalg`` and ``math``, ``H.t``, and a short list of
   array/list/dict methods. No attribute name may start with ``_``; ``.format``/``.format_map`` (the
   ``"{0.__class__}".format(x)`` escape) are refused;
-* calls: only to those namespace functions, the safe builtins and the program's own functions.
+* calls: only to those namespace functions, the safe builtins and the program's own functions;
+  no ``out=``, a ``dtype=`` (and ``.astype``) only naming a number or bool type literally, a few
+  positional arguments at most to numpy methods (``.sum(axis)``, not ``.sum(axis, dtype)``), and
+  ``np.ndarray`` only for ``isinstance``.
 
 Everything else (imports, ``while``, ``lambda``, classes, ``try``, ``global``, ``:=``, ``yield`` ...) is
 rejected with a message naming the construct and its line: that message goes back to the coder.
@@ -29,7 +32,9 @@ from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.geometry.helpers import MONITOR_HELPERS
 from code_as_monitor.monitor.allowlist import (
     BANNED_NAMES,
+    DTYPES,
     MATH_ALLOWED,
+    METHOD_MAX_POSITIONAL,
     NAMESPACE,
     NP_ALLOWED,
     NP_LINALG_ALLOWED,
@@ -133,6 +138,15 @@ def _bound_names(tree: ast.Module) -> tuple[set[str], set[str]]:
         elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
             bound.add(node.id)
     return bound, funcs
+
+
+def _static_dtype(node: ast.AST) -> bool:
+    """A dtype named literally: ``float``, ``np.float64``, ``"float64"`` ... (see ``allowlist.DTYPES``)."""
+    if isinstance(node, ast.Name):
+        return node.id in ("float", "int", "bool", "complex")
+    if isinstance(node, ast.Attribute):
+        return isinstance(node.value, ast.Name) and node.value.id == "np" and node.attr in DTYPES
+    return isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in DTYPES
 
 
 def _root_name(node: ast.AST) -> str | None:
@@ -249,7 +263,29 @@ class _Checker(ast.NodeVisitor):
                                  "safe builtins and the program's own functions may be called")
         elif not isinstance(func, ast.Attribute):
             self.error(node, "a call must name its function directly (np.f, math.f, a helper or a def)")
+        else:
+            self._check_method_call(node, func)
+        for kw in node.keywords:
+            if kw.arg == "out":
+                self.error(node, "'out=' is not allowed in a monitor program; use the returned value")
+            elif kw.arg == "dtype" and not _static_dtype(kw.value):
+                self.error(node, f"dtype {ast.unparse(kw.value)!r} is not allowed: use float, int, bool or "
+                                 "np.float64/np.int64/np.bool_")
         self.generic_visit(node)
+
+    def _check_method_call(self, node: ast.Call, func: ast.Attribute) -> None:
+        if isinstance(func.value, ast.Name) and func.value.id == "np" and func.attr == "ndarray":
+            self.error(node, "np.ndarray(...) cannot be called (it builds arrays over raw buffers); use "
+                             "np.array or np.zeros (isinstance(x, np.ndarray) is fine)")
+            return
+        if isinstance(func.value, ast.Name) and func.value.id in ("np", "math", "H"):
+            return
+        limit = METHOD_MAX_POSITIONAL.get(func.attr)
+        if limit is not None and len(node.args) > limit:
+            self.error(node, f"'.{func.attr}(...)' takes at most {limit} positional argument(s) in a monitor "
+                             "program; pass the others by keyword")
+        if func.attr == "astype" and (len(node.args) != 1 or not _static_dtype(node.args[0])):
+            self.error(node, "'.astype(...)' needs one dtype: float, int, bool or np.float64/np.int64/np.bool_")
 
     # --- constants and f-strings ------------------------------------------------------------------
     def visit_Constant(self, node: ast.Constant) -> None:

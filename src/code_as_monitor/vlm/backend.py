@@ -7,7 +7,7 @@ One interface: a list of :class:`~code_as_monitor.vlm.messages.Message` in, a :c
 - ``kb``: the offline knowledge base, a rule-based stand-in for a VLM (not a VLM).
 - ``replay``: records another backend's requests and responses to a JSONL cassette and replays them.
 
-Implementations are imported lazily by :func:`make_backend`.
+Implementations are imported by name, lazily, by :func:`make_backend` (:data:`IMPLEMENTATIONS`).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from code_as_monitor.core.errors import ConfigError
-from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.core.registry import Choice, build_lazily, check_positive
 from code_as_monitor.vlm.messages import Message
 
 
@@ -153,19 +153,15 @@ class ReplayBackendConfig(VLMBackendConfig):
             raise ConfigError(f"replay.mode={self.mode!r} needs an inner backend to record from")
 
 
+IMPLEMENTATIONS: dict[str, str] = {
+    "openai": "code_as_monitor.vlm.openai_backend:OpenAIBackend",
+    "kb": "code_as_monitor.vlm.kb:KBBackend",
+    "replay": "code_as_monitor.vlm.replay:ReplayBackend",
+}
+"""Registered backend name -> ``"module:Class"`` built from the config (imported by name, on first use, so
+this module imports none of them: no import circle, no optional dependency loaded for nothing)."""
+
+
 def make_backend(config: VLMBackendConfig) -> VLMBackend:
-    """Build the backend for ``config`` (implementations are imported here, lazily)."""
-    if isinstance(config, OpenAIBackendConfig):
-        from code_as_monitor.vlm.openai_backend import OpenAIBackend
-
-        return OpenAIBackend(config)
-    if isinstance(config, KBBackendConfig):
-        from code_as_monitor.vlm.kb import KBBackend
-
-        return KBBackend(config)
-    if isinstance(config, ReplayBackendConfig):
-        from code_as_monitor.vlm.replay import ReplayBackend
-
-        inner = make_backend(config.inner) if config.inner is not None else None
-        return ReplayBackend(config.cassette, mode=config.mode, inner=inner)
-    raise ConfigError(f"no VLM backend implementation for config {type(config).__name__}")
+    """Build the backend for ``config`` (its implementation is imported here, by name)."""
+    return build_lazily(IMPLEMENTATIONS, config, "VLM backend")

@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 from code_as_monitor.core.errors import ConfigError, ReplayMissError, VLMError
-from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
+from code_as_monitor.vlm.backend import ReplayBackendConfig, VLMBackend, VLMResponse, make_backend
 from code_as_monitor.vlm.messages import Message
 
 
@@ -41,13 +41,19 @@ class ReplayBackend:
     """Record/replay wrapper (see the module docstring).
 
     Args:
-        cassette: JSONL path.
+        cassette: JSONL path, or a :class:`ReplayBackendConfig` (then ``mode`` and ``inner`` come from it, the
+            inner backend built from its config).
         mode: "replay" (cassette only), "record" (ask ``inner``, write a fresh cassette) or "auto"
             (replay hits, record misses by appending).
         inner: the backend to record (required for "record" and "auto").
     """
 
-    def __init__(self, cassette: str | Path, mode: str = "replay", inner: VLMBackend | None = None) -> None:
+    def __init__(self, cassette: str | Path | ReplayBackendConfig, mode: str = "replay",
+                 inner: VLMBackend | None = None) -> None:
+        if isinstance(cassette, ReplayBackendConfig):
+            cfg = cassette
+            cassette, mode = cfg.cassette, cfg.mode
+            inner = make_backend(cfg.inner) if cfg.inner is not None else None
         if mode not in ("replay", "record", "auto"):
             raise ConfigError(f"replay mode must be replay, record or auto, got {mode!r}")
         if mode != "replay" and inner is None:

@@ -5,8 +5,8 @@ prompt (```json request), and answers in the same text formats (a JSON plan, a P
 its output goes through exactly the same parsing and validation as a real model's. It is stateless:
 the next subgoal is a function of (instruction, objects, previous subgoal, feedback) only.
 
-Coverage: the simulator's skills (pick, place_on, push_into_region, close_shape) for the stack,
-sweep-half and rope-close tasks; templates for keep-upright and keep-level are in place for growth.
+Coverage: one task family per module under ``families/`` (registered in :mod:`.registry`): stack-in-order,
+sweep-half, rope-close-square, slot-pen, stow-book, pour-tea and open-drawer.
 """
 
 from __future__ import annotations

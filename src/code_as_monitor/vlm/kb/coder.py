@@ -5,8 +5,26 @@ from __future__ import annotations
 from typing import Any
 
 from code_as_monitor.core.errors import VLMError
-from code_as_monitor.vlm.kb.manip_templates import MANIP_TEMPLATES
-from code_as_monitor.vlm.kb.templates import write_check
+from code_as_monitor.vlm.kb.registry import all_keywords, all_templates
+from code_as_monitor.vlm.kb.shared.codegen import Spec
+
+
+def template_key(c: Spec) -> str:
+    """The template for constraint ``c``: its id prefix, else a keyword of its text."""
+    templates = all_templates()
+    prefix = str(c["id"]).split("_", 1)[0]
+    if prefix in templates:
+        return prefix
+    text = str(c.get("text", "")).lower()
+    for word, key in all_keywords():
+        if word in text:
+            return key
+    raise VLMError(f"kb: no code template for constraint {c['id']!r} ({c.get('text', '')!r})")
+
+
+def write_check(c: Spec) -> str:
+    """The source of ``check_<id>`` for constraint ``c``."""
+    return all_templates()[template_key(c)](c)
 
 
 def write_program(request: dict[str, Any]) -> str:
@@ -22,6 +40,5 @@ def write_program(request: dict[str, Any]) -> str:
         ids, parts = c.get("element_ids") or [], c.get("parts") or []
         if len(ids) != len(parts):
             raise VLMError(f"kb: constraint {c.get('id')!r} has {len(ids)} element ids for {len(parts)} parts")
-        key = str(c.get("id", "")).split("_", 1)[0]
-        chunks.append(MANIP_TEMPLATES[key](c) if key in MANIP_TEMPLATES else write_check(c))
+        chunks.append(write_check(c))
     return "\n\n".join(chunks)

@@ -16,6 +16,9 @@ dropped     dropped, detached, not attached, not held, fell from, pick the block
 overshoot   more than, too many, above the upper                  (sweeping) nothing to undo: stop
 other       anything else that is not a success                   repeat the previous subgoal
 =========== ===================================================== =========================================
+
+The gripper families recover by the failed constraint's template key instead (:func:`failed_kind`): the
+agent's feedback is ``"failure: <constraint id>: <reason>"`` and the id starts with the key.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ import re
 
 from code_as_monitor.vlm.schemas import SUCCESS_FEEDBACK
 
-__all__ = ["CATEGORIES", "SUCCESS_FEEDBACK", "classify", "mentioned"]
+__all__ = ["CATEGORIES", "SUCCESS_FEEDBACK", "classify", "failed_kind", "mentioned"]
 
 _SUCCESS_RE = re.compile(r"^\s*(success|succeeded|ok|done|completed?|subgoal (succeeded|completed?))\b", re.I)
 
@@ -63,3 +66,31 @@ def mentioned(feedback: str | None, names: tuple[str, ...] | list[str]) -> list[
                 hits.append((m.start(), n))
                 break
     return [n for _, n in sorted(hits)]
+
+
+_PREFIX_RE = re.compile(r"(?:failure|failed)\s*:\s*([a-z]+)_", re.I)
+_KIND_KEYWORDS = (
+    ("gripped", ("dropped", "no longer held", "not held")),
+    ("carried", ("not inside and dropped",)),
+    ("steady", ("moved", "close on nothing")),
+    ("upright", ("upright", "vertical", "tilted")),
+    ("over", ("not above the opening", "miss")),
+    ("inside", ("not inside",)),
+    ("freed", ("still held",)),
+)
+
+
+def failed_kind(feedback: str | None) -> str:
+    """``"success"``, the failed constraint's template key (``gripped``, ``over``, ...) or ``"other"``.
+
+    The key is the id prefix after ``failure:``; free text without one falls back to keywords."""
+    if classify(feedback) == "success":
+        return "success"
+    m = _PREFIX_RE.search(feedback or "")
+    if m:
+        return m.group(1).lower()
+    s = (feedback or "").lower()
+    for kind, words in _KIND_KEYWORDS:
+        if any(w in s for w in words):
+            return kind
+    return "other"

@@ -1,0 +1,317 @@
+# ruff: noqa: E501  (the template bodies are generated code, kept one statement per line)
+"""kb family ``drawer`` (task ``open-drawer``): understanding, constraint builders, thresholds, templates
+and recovery.
+
+Family ``drawer`` ("open the drawer by pulling its handle"): ``grasp`` the cabinet's handle -> ``pull`` the
+drawer out ``PULL_DISTANCE`` (then the gripper lets go) -> done. Elements, all points: the gripper's grasp
+point (``robot/tip``), the handle bar's centre (``drawer_cabinet/handle``), the drawer front
+(``drawer_cabinet/drawer``) and the cabinet's body (``drawer_cabinet/frame``); the drawer's axis is the
+horizontal direction from the body to the drawer front, its travel is the handle's motion along that axis
+over the element history ``H`` (see the templates below). The grasp is judged
+with the gripper's two fingers too (``robot/finger_left``, ``robot/finger_right``, proprioception): the handle
+is not lifted, so only the closed jaws tell a grasp from an open gripper passing the bar.
+
+Recovery by the failed constraint's id prefix (``"failure: <id>: <reason>"``):
+
+======================================================= ==========================================
+failed                                                  next subgoal
+======================================================= ==========================================
+drawerstill (the handle moved before the grasp),         grasp the handle again (where it is now)
+handlegrip/jawshut (not in the closed gripper), handled
+(the grasp slipped off mid-pull), pulled (not out far)
+drawerfreed (still held after the pull)                  pull again (it ends by letting go)
+======================================================= ==========================================
+
+After a slip the next pull is again ``PULL_DISTANCE`` from wherever the drawer stopped: the kb is stateless
+(it sees the failed constraint's id, not how far the drawer came out), so it cannot ask for just the
+remaining distance; the drawer's 25 cm travel leaves room for a slip at up to 8 cm plus a full pull.
+
+Thresholds: Physical tolerances from the object sizes in sim/assets, never fitted to evaluation outcomes. Units: metres,
+radians, fractions.
+
+Sizes used (``sim/assets/drawer_cabinet.urdf``): the handle is a bar 10 cm long and 1.2 cm thick, 3.5 cm in
+front of the drawer front; the drawer's tray is 22 cm deep; the gripper's fingers are 4.5 cm long and
+its grasp point sits between them; its jaws open 8 cm.
+
+Templates: same rules as :mod:`code_as_monitor.vlm.kb.shared.codegen`: one decision per check (so path coverage reaches both
+branches), literal ``True``/``False`` returns, reasons with every measurement, only ``np``, ``math`` and the
+monitor helpers. Element order in a constraint's parts is the contract with the builders above:
+``tip`` the gripper's grasp point, ``handle`` the handle bar's centre, ``drawer`` the drawer front and
+``frame`` the cabinet's body, ``finger_left``/``finger_right`` the gripper's jaws (proprioception; their
+distance is the jaw opening), all points (world metres).
+
+How far the drawer came out: the drawer's axis is the horizontal direction from the frame's point to the
+drawer front's point (the front sits ahead of the cabinet's body along the axis, and only the direction is
+used, so a few cm of painting error in either point tilt it by a few degrees). The drawer front's travel is
+measured on its handle, a compact bar fixed to the front whose painted point is the same however far the
+drawer is out (the drawer's own visible area grows as its tray comes out, which moves its painted centre):
+``opened`` = |(handle now - handle at the oldest frame of ``H``) . axis|, metres. ``H`` starts with the subgoal,
+so this is the travel since the pull began. The sign is dropped: on its rails a drawer that starts the pull
+closed or a few cm out (after a slip) can only travel ``min_open`` by coming out, and path coverage's moving
+histories point in random directions, so a signed test leaves its True branch unreached for some cabinet
+headings. (The projection still ignores sideways drift of the tracked point.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from code_as_monitor.vlm.grammar import Instruction
+from code_as_monitor.vlm.kb.family import TaskFamily
+from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
+from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
+from code_as_monitor.vlm.kb.shared.feedback import failed_kind
+from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, freed, part_spec
+
+DRAWER_OPEN = 0.15
+"""Metres a drawer must come out to count as open: more than half of a 22 cm deep tray, enough to reach in."""
+
+THRESHOLDS: dict[str, dict[str, float]] = {
+    # grasp, during (proactive): the handle stays where it is (within 2 cm) while the gripper approaches and
+    # closes; a drawer pushed or pulled by 2 cm moves the 1.2 cm bar out of the closing jaws, which then close
+    # on nothing. (The grasp does not lift the handle, so a held handle stays put as well.)
+    "drawer_still": {"max_disp": 0.02},
+    # grasp, upon: the handle's centre within 3 cm of the grasp point: jaws closed on a 1.2 cm bar hold it
+    # within 1 cm, plus up to 2 cm for a handle point painted from the bar's visible pixels beside the fingers.
+    "drawer_handle_grip": {"max_dist": 0.03},
+    # grasp, upon: the jaws are closed on the bar: their opening between 1 cm and 5 cm (open it is 8 cm,
+    # closed on nothing 0; on the 1.2 cm bar the fingers' pads leave a little clearance either side). The
+    # handle is not lifted, so without this the grasp would look done while the open gripper passes the bar
+    # on its way down.
+    "drawer_jaw_shut": {"min_jaw": 0.01, "max_jaw": 0.05},
+    # pull, during (reactive): the handle stays within 3 cm of the grasp point (as above) while the drawer is
+    # less than DRAWER_OPEN out; once it is that far out, letting go is the plan.
+    "drawer_handled": {"max_dist": 0.03, "min_open": DRAWER_OPEN},
+    # pull, upon: the drawer front (its handle) has come out DRAWER_OPEN along the drawer's axis since the
+    # pull began.
+    "drawer_pulled": {"min_open": DRAWER_OPEN},
+    # pull, upon: released: the grasp point 6 cm from the handle, beyond the 3 cm grip tolerance plus the
+    # fingers' 3 cm reach past the bar (4.5 cm fingers, grasp point 5 mm inside their ends, 1.2 cm bar).
+    "drawer_freed": {"release_dist": 0.06},
+}
+
+
+def _thr(kind: str) -> dict[str, float]:
+    return dict(THRESHOLDS[kind])
+
+
+PULL_DISTANCE = round(DRAWER_OPEN + 0.02, 3)
+"""Metres the pull moves the handle: the opening asked for plus 2 cm, for a grasp that lags the tool a little
+and for the painted points' noise."""
+
+
+@dataclass(frozen=True)
+class DrawerGoal:
+    """The cabinet and the part to grasp (its handle)."""
+
+    obj: str
+    target: str = "handle"
+
+
+def _about_drawer(s: str) -> bool:
+    return "drawer" in s and any(w in s for w in ("open", "pull"))
+
+
+def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
+    """The cabinet grounded on ``objects``; None when the instruction is not about opening a drawer."""
+    if not _about_drawer(ins.lower):
+        return None
+    names = [o for o in objects if "/" not in o]
+    cabinet = next((o for o in names if "drawer" in o or "cabinet" in o), "")
+    return DrawerGoal(cabinet, "handle") if cabinet else None
+
+
+def scene(ins: Instruction) -> list[str] | None:
+    """The open-drawer scene's objects, or None."""
+    return ["drawer_cabinet", "table"] if _about_drawer(ins.lower) else None
+
+
+# --- elements and constraint builders ------------------------------------------------------------------
+FINGER_LEFT = {"name": "gripper left finger", "obj": "robot", "part": "finger_left", "kind": "point"}
+FINGER_RIGHT = {"name": "gripper right finger", "obj": "robot", "part": "finger_right", "kind": "point"}
+"""The gripper's jaws at the grasp point's depth, from proprioception; their distance is the jaw opening."""
+
+
+def _handle(obj: str) -> dict[str, str]:
+    return part_spec(obj, "handle", "point", "handle")
+
+
+def _front(obj: str) -> dict[str, str]:
+    return part_spec(obj, "drawer", "point", "drawer front")
+
+
+def _frame(obj: str) -> dict[str, str]:
+    return part_spec(obj, "frame", "point", "frame")
+
+
+def grasp(obj: str) -> list[dict[str, Any]]:
+    """``grasp`` the handle: during (proactive) the handle stays put; upon, it is at the grasp point and the jaws
+    are closed (no lift: the drawer runs on its rails)."""
+    st, gr, js = _thr("drawer_still"), _thr("drawer_handle_grip"), _thr("drawer_jaw_shut")
+    return [
+        constraint(f"drawerstill_{obj}", f"the handle of {nice(obj)} stays where it is (within {st['max_disp'] * 100:.0f} cm) "
+           f"while the gripper approaches and closes; if the drawer moves, the jaws close on nothing", "during", True,
+           st, [_handle(obj)]),
+        constraint(f"handlegrip_{obj}", f"the handle of {nice(obj)} is between the fingers: its centre within "
+           f"{gr['max_dist'] * 100:.0f} cm of the grasp point", "upon", False, gr, [GRIP_TIP, _handle(obj)]),
+        constraint(f"jawshut_{obj}", f"the gripper's jaws are closed on the handle of {nice(obj)}: their opening between "
+           f"{js['min_jaw'] * 100:.1f} and {js['max_jaw'] * 100:.0f} cm", "upon", False, js,
+           [FINGER_LEFT, FINGER_RIGHT]),
+    ]
+
+
+def pull(obj: str) -> list[dict[str, Any]]:
+    """``pull``: during, the handle stays in the gripper until the drawer is out; upon, the drawer front came out
+    ``DRAWER_OPEN`` along its axis (element history) and the gripper let go."""
+    hd, pu, fr = _thr("drawer_handled"), _thr("drawer_pulled"), _thr("drawer_freed")
+    return [
+        constraint(f"handled_{obj}", f"the handle of {nice(obj)} stays in the gripper (within {hd['max_dist'] * 100:.0f} cm "
+           f"of the grasp point) until the drawer is out {hd['min_open'] * 100:.0f} cm; if the grasp slips off, the "
+           f"gripper pulls nothing", "during", False, hd, [GRIP_TIP, _handle(obj), _front(obj), _frame(obj)]),
+        constraint(f"pulled_{obj}", f"the drawer front of {nice(obj)} came out at least {pu['min_open'] * 100:.0f} cm along "
+           f"the drawer's axis since the pull began", "upon", False, pu, [_handle(obj), _front(obj), _frame(obj)]),
+        constraint(f"drawerfreed_{obj}", f"the handle of {nice(obj)} is released: the grasp point at least "
+           f"{fr['release_dist'] * 100:.0f} cm from it", "upon", False, fr, [GRIP_TIP, _handle(obj)]),
+    ]
+
+
+# --- the rule ----------------------------------------------------------------------------------------------
+REGRASP = ("drawerstill", "handlegrip", "jawshut", "handled", "pulled")
+
+
+def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: str) -> dict[str, Any]:
+    """The next subgoal; ``kind`` is the failed constraint's key (or ``success``). ``target`` is the part to
+    grasp (``handle``)."""
+    part = target or "handle"
+    g = answer(f"grasp the {part} of {nice(obj)}", "grasp", {"obj": obj, "part": part}, grasp(obj), "")
+    p = answer(f"pull the drawer of {nice(obj)} open by {PULL_DISTANCE * 100:.0f} cm", "pull",
+               {"obj": obj, "distance": PULL_DISTANCE}, pull(obj), "")
+    fin = done("the drawer is open and released")
+    skill = ((previous or {}).get("action") or {}).get("skill")
+    if not previous or skill not in ("grasp", "pull"):
+        if previous and previous.get("done"):
+            return fin
+        g["reasoning"] = "the drawer is closed: grasp its handle first, then pull it out along its rails"
+        return g
+    if kind == "success":
+        if skill == "grasp":
+            p["reasoning"] = (f"the handle is held; pull straight out along the drawer's axis, "
+                              f"{PULL_DISTANCE * 100:.0f} cm (the opening asked for plus a margin), then let go")
+            return p
+        return fin
+    if kind in REGRASP or (skill == "grasp" and kind == "other"):
+        g["reasoning"] = (f"the handle is not in the gripper or the drawer is not out far enough ({kind}); grasp "
+                          f"the handle again where it is now, then pull again")
+        return g
+    p["reasoning"] = f"the pull did not finish ({kind}); pull again, which ends by letting go"
+    return p
+
+
+
+def next_subgoal(goal: DrawerGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
+    return next_drawer(goal.obj, goal.target, previous, failed_kind(feedback))
+
+
+# --- templates ---------------------------------------------------------------------------------------------
+def _opened(h: int, dr: int, fr: int) -> str:
+    """Lines computing ``axis`` (3,) and ``opened`` (metres out along it since the oldest frame of H)."""
+    return f"""
+    axis = centroid(E[{dr}]) - centroid(E[{fr}])
+    axis = np.array([axis[0], axis[1], 0.0]) / (np.linalg.norm(axis[:2]) + 1e-9)
+    opened = np.abs(np.dot(centroid(E[{h}]) - centroid(H[{h}][0]), axis))
+"""
+
+
+def drawerstill(c: Spec) -> str:
+    """Parts: [handle (point)]. The handle has not moved since the grasp began (it is never lifted: a grasped
+    handle stays where it is too, so this needs no "unless held" escape)."""
+    (h,) = c["element_ids"][:1]
+    th, hn = c["thresholds"], obj_name(c, 0)
+    mx = num(th["max_disp"])
+    body = f"""
+    m = displacement(H[{h}])
+    if m <= {mx}:
+        return True, {lit("the handle of " + hn + " stays where it was (moved %.3f m)")} % m, {mx} - m
+    return False, {lit("the handle of " + hn + " moved %.3f m while the gripper approached: the drawer moved and the jaws will close on nothing")} % m, {mx} - m
+"""
+    return check_fn(c, body)
+
+
+def handlegrip(c: Spec) -> str:
+    """Parts: [tip (point), handle (point)]. The handle's centre is at the grasp point."""
+    tip, h = c["element_ids"][:2]
+    th, hn = c["thresholds"], obj_name(c, 1)
+    md = num(th["max_dist"])
+    body = f"""
+    d = distance(E[{tip}], centroid(E[{h}]))
+    if d <= {md}:
+        return True, {lit("the handle of " + hn + " is between the fingers (%.3f m from the grasp point)")} % d, {md} - d
+    return False, {lit("the handle of " + hn + " is not between the fingers: %.3f m from the grasp point (limit " + md + ")")} % d, {md} - d
+"""
+    return check_fn(c, body)
+
+
+def jawshut(c: Spec) -> str:
+    """Parts: [left finger (point), right finger (point)]. The jaws are closed on something about the handle's
+    width: their opening (the fingers' distance) between ``min_jaw`` and ``max_jaw``."""
+    fl, fr = c["element_ids"][:2]
+    th = c["thresholds"]
+    lo, hi = num(th["min_jaw"]), num(th["max_jaw"])
+    body = f"""
+    jaw = distance(E[{fl}], E[{fr}])
+    margin = np.min([jaw - {lo}, {hi} - jaw])
+    if jaw >= {lo} and jaw <= {hi}:
+        return True, "the jaws are closed on the handle (%.3f m apart)" % jaw, margin
+    return False, "the jaws are not closed on the handle: %.3f m apart (open they are 0.08 m apart, closed on nothing 0; on the handle {lo} to {hi})" % jaw, margin
+"""
+    return check_fn(c, body)
+
+
+def handled(c: Spec) -> str:
+    """Parts: [tip (point), handle (point), drawer front (point), frame (point)]. The handle stays at the grasp
+    point while the pull goes on, unless the drawer is already out by ``min_open`` (letting go is the plan)."""
+    tip, h, dr, fr = c["element_ids"][:4]
+    th, hn = c["thresholds"], obj_name(c, 1)
+    md, mo = num(th["max_dist"]), num(th["min_open"])
+    body = _opened(h, dr, fr) + f"""
+    d = distance(E[{tip}], centroid(E[{h}]))
+    margin = np.max([{md} - d, opened - {mo}])
+    if d <= {md} or opened >= {mo}:
+        return True, {lit("the handle of " + hn + " is in the gripper or the drawer is already out (%.3f m from the grasp point, drawer out %.3f m)")} % (d, opened), margin
+    return False, {lit("the grasp slipped off the handle of " + hn + ": the handle is %.3f m from the grasp point and the drawer came out only %.3f m")} % (d, opened), margin
+"""
+    return check_fn(c, body)
+
+
+def pulled(c: Spec) -> str:
+    """Parts: [handle (point), drawer front (point), frame (point)]. The drawer came out ``min_open`` along its
+    axis since the pull began."""
+    h, dr, fr = c["element_ids"][:3]
+    th, hn = c["thresholds"], obj_name(c, 0)
+    mo = num(th["min_open"])
+    body = _opened(h, dr, fr) + f"""
+    if opened >= {mo}:
+        return True, {lit("the drawer of " + hn + " came out %.3f m along its axis")} % opened, opened - {mo}
+    return False, {lit("the drawer of " + hn + " came out only %.3f m along its axis (needs " + mo + ")")} % opened, opened - {mo}
+"""
+    return check_fn(c, body)
+
+
+def drawerfreed(c: Spec) -> str:
+    """Parts: [tip (point), handle (point)]. The gripper has let go of the handle and moved off it."""
+    return freed(c, "the handle of " + obj_name(c, 1))
+
+
+FAMILY = TaskFamily(
+    name="drawer",
+    task="open-drawer",
+    summary="open the drawer by pulling its handle",
+    example="open the drawer by pulling its handle",
+    understand=understand,
+    next_subgoal=next_subgoal,
+    scene=scene,
+    thresholds=THRESHOLDS,
+    templates={"drawerstill": drawerstill, "handlegrip": handlegrip, "jawshut": jawshut, "handled": handled,
+               "pulled": pulled, "drawerfreed": drawerfreed},
+)

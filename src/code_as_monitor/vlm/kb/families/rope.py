@@ -1,0 +1,150 @@
+# ruff: noqa: E501  (the template bodies are generated code, kept one statement per line)
+"""kb family ``rope`` (task ``rope-close-square``): drag a rope across the opening of a square outline.
+
+Plan: one ``close_shape`` subgoal; upon, resting rope beads lie along (nearly) all of the opening between
+``corner_3`` and ``corner_0`` for a short while. Elements: the two corners of the opening and every rope bead
+(``rope/bead_NN``, points). Recovery: keep adjusting the rope until the opening is enclosed.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from code_as_monitor.vlm.grammar import Instruction
+from code_as_monitor.vlm.kb.family import TaskFamily
+from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
+from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, num
+from code_as_monitor.vlm.kb.shared.feedback import classify
+
+DEFAULT_ROPE_BEADS = 20
+"""Bead count assumed for ``rope`` when the scene does not list its parts (``rope/bead_NN``)."""
+
+THRESHOLDS: dict[str, dict[str, float]] = {
+    # close_shape: the rope lies along the opening (enclosed, not a perfect square): at least
+    # `min_fraction` of `samples` points spread along the opening, both corners included, have a
+    # resting bead within `max_gap` horizontally (a gap narrower than a 2.5 cm block cannot let
+    # anything through); beads above `max_z` (two bead radii plus 1 cm) are being carried, not resting.
+    # The same definition as the simulator's "enclosed" (11 samples, 90 %, 2.5 cm), and it must have
+    # held over the last `stable_s` seconds: a rope still being dragged encloses the opening for an
+    # instant and opens again, so a halt on one frame stops the robot in a state that does not last.
+    "rope_cover": {"max_gap": 0.025, "samples": 11, "min_fraction": 0.9, "max_z": 0.026, "stable_s": 0.3},
+}
+
+
+def _thr(kind: str) -> dict[str, float]:
+    return dict(THRESHOLDS[kind])
+
+
+@dataclass(frozen=True)
+class RopeGoal:
+    """The rope, the shape whose opening it closes, and the rope's bead parts in order (ends first and last)."""
+
+    rope: str
+    shape: str
+    rope_beads: tuple[str, ...]
+
+
+def _about_rope(s: str) -> bool:
+    return "rope" in s and any(w in s for w in ("close", "enclose", "opening", "square"))
+
+
+def scene_parts(objects: list[str]) -> dict[str, list[str]]:
+    """Parts listed in the scene as ``"obj/part"`` entries, by object."""
+    parts: dict[str, list[str]] = {}
+    for o in objects:
+        if "/" in o:
+            obj, part = o.split("/", 1)
+            parts.setdefault(obj, []).append(part)
+    return parts
+
+
+def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
+    """The rope, shape and beads grounded on ``objects``; None when the instruction is not about the rope."""
+    if not _about_rope(ins.lower):
+        return None
+    names = [o for o in objects if "/" not in o]
+    rope = next((o for o in names if "rope" in o), "")
+    shape = next((o for o in names if o in ("square", "shape", "outline")), "")
+    if not rope or not shape:
+        return None
+    beads = sorted(p for p in scene_parts(objects).get(rope, []) if re.fullmatch(r"bead_\d+", p))
+    if not beads:
+        beads = [f"bead_{i:02d}" for i in range(DEFAULT_ROPE_BEADS)]
+    return RopeGoal(rope, shape, tuple(beads))
+
+
+def scene(ins: Instruction) -> list[str] | None:
+    """The rope-close-square scene's objects, or None."""
+    return ["rope", "square", "table"] if _about_rope(ins.lower) else None
+
+
+def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str, Any]]:
+    """``close_shape``: upon, resting rope beads lie along (nearly) all of the opening between corner_3 and corner_0."""
+    thr = _thr("rope_cover")
+    parts = [
+        {"name": f"{shape} opening corner_0", "obj": shape, "part": "corner_0", "kind": "point"},
+        {"name": f"{shape} opening corner_3", "obj": shape, "part": "corner_3", "kind": "point"},
+    ] + [{"name": f"rope {b}", "obj": rope, "part": b, "kind": "point"} for b in beads]
+    return [
+        constraint(
+            "rope_covers_opening",
+            f"{nice(rope)} closes the opening of {nice(shape)}: at least {thr['min_fraction'] * 100:.0f} % of "
+            f"the opening (corner_3 to corner_0, corners included) has a resting rope bead within "
+            f"{thr['max_gap'] * 100:.1f} cm, steadily for {thr['stable_s']:g} s",
+            "upon", False, thr, parts,
+        )
+    ]
+
+
+# --- templates ---------------------------------------------------------------------------------------------
+def covers(c: Spec) -> str:
+    c0, c3 = c["element_ids"][:2]
+    beads = tuple(c["element_ids"][2:])
+    th = c["thresholds"]
+    gap, n, mz, frac = num(th["max_gap"]), int(th["samples"]), num(th["max_z"]), num(th["min_fraction"])
+    win = num(th["stable_s"])
+    body = f"""
+    s = np.linspace(0.0, 1.0, {n})
+    covered = 1.0
+    for j in np.nonzero(H.t >= t - {win})[0]:
+        a = centroid(H[{c0}][j])
+        b = centroid(H[{c3}][j])
+        samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
+        beads = np.array([centroid(H[i][j]) for i in {beads!r}])
+        carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
+        d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
+        covered = min(covered, float(np.mean(np.min(d, axis=1) <= {gap})))
+    if covered >= {frac}:
+        return True, "the rope has closed the opening for {win} s (at least %.0f%% of it within {gap} m of a resting bead)" % (100 * covered), covered - {frac} + 0.5 / {n}
+    return False, "the opening of the square is not enclosed steadily: over the last {win} s as little as %.0f%% of it was within {gap} m of a resting rope bead" % (100 * covered), covered - {frac} + 0.5 / {n}
+"""
+    return check_fn(c, body)
+
+
+# --- the rule ----------------------------------------------------------------------------------------------
+def next_rope(task: RopeGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
+    why = "the opening lies between corner_3 and corner_0; it is enclosed when rope beads lie all along it"
+    if previous and previous.get("action"):
+        cat = classify(feedback)
+        if cat == "success":
+            return done("the opening of the square is enclosed by the rope")
+        why = f"the opening is not enclosed yet ({cat}); keep adjusting the rope. " + why
+    cons = close_shape(task.rope, task.shape, task.rope_beads)
+    text = f"close the opening of {nice(task.shape)} with {nice(task.rope)}"
+    return answer(text, "close_shape", {"rope": task.rope, "shape": task.shape}, cons, why)
+
+
+FAMILY = TaskFamily(
+    name="rope",
+    task="rope-close-square",
+    summary="close the opening of the square outline with the rope",
+    example="use the rope to close the opening of the square",
+    understand=understand,
+    next_subgoal=next_rope,
+    scene=scene,
+    thresholds=THRESHOLDS,
+    templates={"rope": covers},
+    keywords=(("rope", "rope"),),
+)
