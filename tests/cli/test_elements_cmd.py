@@ -29,8 +29,8 @@ def test_elements_options_reach_the_scene(capsys: pytest.CaptureFixture[str]) ->
     assert position < 3.0
 
 
-@pytest.mark.parametrize(("flag", "value", "message"), [("--outliers", "1.5", "outliers must be in"),
-                                                        ("--noise-mm", "-1", "noise-mm must be >= 0")])
+@pytest.mark.parametrize(("flag", "value", "message"), [("--outliers", "1.5", "outliers: must be in"),
+                                                        ("--noise-mm", "-1", "noise-mm: must be >= 0")])
 def test_bad_options_exit_2_with_one_line(
     capsys: pytest.CaptureFixture[str], flag: str, value: str, message: str
 ) -> None:

@@ -51,4 +51,49 @@ def test_wall_time_sums_sessions_including_killed_ones():
 
 def test_missing_results_exit_2(tmp_path, capsys):
     assert main(["report", str(tmp_path / "none.jsonl")]) == 2
-    assert "no results file" in capsys.readouterr().err
+    assert "no such file" in capsys.readouterr().err
+
+
+def _one_seed(path, successes) -> None:
+    recs = [{"kind": "episode", "condition": "stack-p0.15", "method": "open-loop", "seed": 0, "episode": e,
+             "success": ok, "sim_time_s": 10.0, "wall_time_s": 1.0, "vlm": {"calls": 0, "total_tokens": 0},
+             "alarms": [], "gt": []} for e, ok in enumerate(successes)]
+    path.write_text("\n".join(json.dumps(r) for r in recs) + "\n")
+
+
+def test_intervals_are_labelled_and_clipped_to_0_100(tmp_path, capsys):
+    res = tmp_path / "r.jsonl"
+    _one_seed(res, [True, False, False, False])  # 25 % +- t(0.975, 3) * 50 / 2 = 79.6: past 0 and 100
+    assert main(["report", str(res), "--out", str(tmp_path / "rep"), "--print"]) == 0
+    md = capsys.readouterr().out
+    assert "| Stack in order, p=0.15 | 4 | 25.0 (0.0–100.0)† |" in md
+    assert "95 % t-interval" in md and "over episodes, as each cell has a single seed (n = 4 episodes)" in md
+    assert "† the interval reaches past 0–100 %" in md and "clipped" in md
+    _one_seed(res, [True] * 7 + [False])  # 87.5 % +- 29.6: only the upper end is clipped
+    assert main(["report", str(res), "--out", str(tmp_path / "rep"), "--print"]) == 0
+    assert "| 8 | 87.5 (57.9–100.0)† |" in capsys.readouterr().out
+
+
+def test_seed_level_intervals_say_so(tmp_path, capsys):
+    res = tmp_path / "r.jsonl"
+    _results(res)
+    assert main(["report", str(res), "--out", str(tmp_path / "rep"), "--print"]) == 0
+    assert "over seeds (the per-seed means; n = 2 seeds)" in capsys.readouterr().out
+
+
+def test_clipped_interval():
+    from code_as_monitor.bench.report import clipped_interval
+
+    assert clipped_interval({"mean": 25.0, "ci": 79.6}, 0.0, 100.0) == (0.0, 100.0, True)
+    assert clipped_interval({"mean": 50.0, "ci": 10.0}, 0.0, 100.0) == (40.0, 60.0, False)
+    lo, hi, clipped = clipped_interval({"mean": 5.0, "ci": float("nan")}, 0.0, 100.0)
+    assert (lo, hi, clipped) == (5.0, 5.0, False)
+
+
+def test_empty_results_file_is_one_line_exit_2(tmp_path, capsys):
+    res = tmp_path / "r.jsonl"
+    res.write_text("")
+    assert main(["report", str(res)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no episode records" in err[0]
+    assert not (tmp_path / "r-report").exists()

@@ -16,7 +16,7 @@ from code_as_monitor.cli.main import main
         (["run", "stack-in-order", "--tracker", "foo"], "unknown TrackerConfig 'foo'"),
         (["run", "stack-in-order", "--segmenter", "bar"], "unknown SegmenterConfig 'bar'"),
         (["run", "stack-in-order", "--backend", "nope"], "unknown VLMBackendConfig 'nope'"),
-        (["run", "stack-in-order", "--p", "2"], "p must be in [0, 1], got 2.0"),
+        (["run", "stack-in-order", "--p", "2"], "argument --p: must be in [0, 1], got 2"),
         (["run", "stack-in-order", "--size", "12"], "--size must look like 640x480"),
         (["demo", "--backend", "replay"], "--backend replay needs --cassette"),
     ],

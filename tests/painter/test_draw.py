@@ -41,3 +41,37 @@ def test_points_behind_the_camera_are_skipped() -> None:
 def test_banner_covers_the_top() -> None:
     out = draw_banner(np.zeros((240, 320, 3), np.uint8), "VIOLATION x", (200, 30, 30))
     assert (out[2, :, 0] == 200).mean() > 0.5
+
+
+def _label_boxes(out: np.ndarray, rgb: np.ndarray) -> np.ndarray:
+    """Pixels of the dark label backings (20, 20, 20) drawn over a mid-grey image."""
+    return (np.abs(out.astype(int) - 20).sum(axis=2) < 6) & (np.abs(rgb.astype(int) - 20).sum(axis=2) > 6)
+
+
+def test_labels_of_nearby_elements_do_not_overlap() -> None:
+    from code_as_monitor.painter.draw import _label_size, place_labels
+
+    sizes = [_label_size(str(i), 1.0) for i in range(6)]
+    anchors = [(160 + 3 * i, 120 + 2 * i) for i in range(6)]  # six elements within a few pixels
+    origins = place_labels(anchors, sizes, (240, 320, 3), 5)
+    boxes = [(x - 2, y - h - 3, x + w + 2, y + b + 1) for (x, y), (w, h, b) in zip(origins, sizes)]
+    for i in range(len(boxes)):
+        for j in range(i):
+            a, c = boxes[i], boxes[j]
+            assert min(a[2], c[2]) <= max(a[0], c[0]) or min(a[3], c[3]) <= max(a[1], c[1]), (i, j)
+    # a lone label keeps the usual spot (up-right of its anchor)
+    (x, y), = place_labels([(100, 100)], sizes[:1], (240, 320, 3), 5)
+    assert x > 100 and y < 100
+
+
+def test_hidden_elements_get_faded_labels() -> None:
+    cam = _camera()
+    rgb = np.full((240, 320, 3), 90, np.uint8)
+    el = Element.point(7, "a", [0.1, 0.0, 0.0])
+    shown = draw_elements(rgb, cam, [el])
+    hidden = draw_elements(rgb, cam, [el], stale={7: np.array([True])})
+    assert _label_boxes(shown, rgb).sum() > 30  # a solid dark backing
+    assert _label_boxes(hidden, rgb).sum() == 0  # blended into the picture: no solid backing
+    partly = draw_elements(rgb, cam, [Element.line(3, "b", [0.1, 0.0, 0.0], [0.1, 0.1, 0.0])],
+                           stale={3: np.array([True, False])})
+    assert _label_boxes(partly, rgb).sum() > 30  # one point still seen: not hidden

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.loop import DEFAULT_MAX_REPLANS
-from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.checks import check_count, check_positive, check_seed
 from code_as_monitor.core.run_io import EventLog, write_json
 
 log = logging.getLogger(__name__)
@@ -56,10 +56,11 @@ class ClosedLoopConfig:
     max_replans: int = DEFAULT_MAX_REPLANS
 
     def __post_init__(self) -> None:
-        if self.width < 32 or self.height < 32:
-            raise ConfigError(f"camera size must be at least 32x32, got {self.width}x{self.height}")
-        if self.camera_hz <= 0:
-            raise ConfigError(f"camera_hz must be > 0, got {self.camera_hz!r}")
+        check_seed("ClosedLoopConfig", self.seed)
+        check_count("ClosedLoopConfig", "width", self.width, 32)
+        check_count("ClosedLoopConfig", "height", self.height, 32)
+        check_positive("ClosedLoopConfig", "camera_hz", self.camera_hz)
+        check_count("ClosedLoopConfig", "max_replans", self.max_replans, 0)
 
 
 def check_choices(cfg: ClosedLoopConfig) -> None:
@@ -114,7 +115,7 @@ def run_closed_loop(
     from code_as_monitor.planning.generator import ConstraintGenerator
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
-    from code_as_monitor.viz.video import VideoWriter, compose_frame
+    from code_as_monitor.viz.video import FrameComposer, VideoWriter
     from code_as_monitor.vlm import VLMBackendConfig, make_backend
 
     wall0 = time.perf_counter()
@@ -134,9 +135,11 @@ def run_closed_loop(
         if on_event is not None:
             on_event(ev)
 
+    compose = FrameComposer(fps=cfg.camera_hz)  # keeps verdict banners up for 1.5 s of video
+
     def on_frame(obs, elements, stale, verdicts, banner) -> None:
         if video is not None:
-            video.write(compose_frame(obs, elements, stale, verdicts, banner))
+            video.write(compose(obs, elements, stale, verdicts, banner))
 
     def on_prompt(index: int, subgoal: Any, images: dict[str, np.ndarray], source: str) -> None:
         if run_dir is None:
@@ -169,6 +172,8 @@ def run_closed_loop(
     finally:
         runtime.close()
         if video is not None:
+            for frame in compose.tail():
+                video.write(frame)
             video.close()
     summary: dict[str, Any] = {
         "method": "cam",

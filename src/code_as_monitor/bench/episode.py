@@ -19,6 +19,8 @@ from typing import Any
 
 from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
 from code_as_monitor.bench.protocol import Job, condition, episode_seed
+from code_as_monitor.core.checks import check_fields, check_positive
+from code_as_monitor.core.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +52,13 @@ class EpisodeOptions:
     camera_hz: float = 10.0
     counterfactual: bool = True
     horizon_s: float = DEFAULT_HORIZON_S
+
+    def __post_init__(self) -> None:
+        check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
+        for name in ("doremi_k_s", "camera_hz", "horizon_s"):
+            check_positive("EpisodeOptions", name, getattr(self, name))
+        if not isinstance(self.backend_options, dict):
+            raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -120,12 +129,13 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
     from code_as_monitor.planning.generator import ConstraintGenerator
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
-    from code_as_monitor.viz.video import VideoWriter, compose_frame
+    from code_as_monitor.viz.video import FrameComposer, VideoWriter
     from code_as_monitor.vlm import VLMBackendConfig, make_backend
 
     # Open-loop renders nothing of its own; its sample video is rendered at OPEN_LOOP_VIDEO_HZ only.
     fps = OPEN_LOOP_VIDEO_HZ if method == "open-loop" else opts.camera_hz
     video = VideoWriter(run_dir / "episode.mp4", fps=fps) if run_dir is not None else None
+    compose = FrameComposer(fps=fps)  # keeps verdict banners up for 1.5 s of video
 
     def emit(kind: str, **fields: Any) -> None:
         cfs({"kind": kind, **fields})
@@ -146,7 +156,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
                 def tick() -> None:  # only the sample episode renders (for its video)
                     if video is not None and env.world.t >= next_frame[0] - 1e-9:
                         next_frame[0] += 1.0 / OPEN_LOOP_VIDEO_HZ
-                        video.write(compose_frame(env.world.observe(), [], None, [], ""))
+                        video.write(compose(env.world.observe(), [], None, [], ""))
 
                 agent: Any = OpenLoopAgent(env.plan, limit, on_event=emit, on_tick=tick)
                 episode = agent.run(env.instruction, env.world, env.policy)
@@ -159,7 +169,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
 
                 def on_frame(obs: Any, banner: str) -> None:
                     if video is not None:
-                        video.write(compose_frame(obs, [], None, [], banner))
+                        video.write(compose(obs, [], None, [], banner))
 
                 agent = CheckingAgent(planner, vqa, cfg, opts.doremi_k_s if doremi else None,
                                       ask_all_at_end=not doremi, time_limit_s=limit, on_event=emit,
@@ -172,6 +182,8 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
             images = env.world.frames_rendered
     finally:
         if video is not None:
+            for frame in compose.tail():
+                video.write(frame)
             video.close()
     return {"success": bool(result.success), "reason": result.reason, "sim_time_s": round(float(episode.t_end), 3),
             "alarms": [a.to_dict() for a in episode.alarms], "gt": gt, "vlm": usage_ep,

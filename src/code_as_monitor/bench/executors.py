@@ -8,18 +8,34 @@
 
 Both yield ``(job, record)`` as episodes finish, in completion order; a record is a pure function of
 (job, options), so the results are the same whichever executor runs them.
+
+Lifetime: no worker outlives the process that started it. Local pool workers ask the kernel to kill
+them when their parent dies (``PR_SET_PDEATHSIG`` on Linux) and also watch their parent pid from a
+thread (any platform), so a ``kill -9`` of ``cam bench`` takes its workers with it; they ignore
+SIGINT (a Ctrl-C reaches the whole process group: the parent alone decides) and, when the parent
+stops iterating (Ctrl-C, SIGTERM turned into an exception, an error while writing results), the pool
+is cancelled and its workers terminated at once instead of finishing their episodes. The
+multiprocessing resource tracker exits when the last of them is gone. A local Ray instance started
+here is shut down the same way; its processes are started fate-sharing with this one (Ray's own
+``PR_SET_PDEATHSIG``), so they also go when it is killed.
 """
 
 from __future__ import annotations
 
+import logging
 import os
+import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.core.checks import check_count
 from code_as_monitor.core.errors import MissingExtraError
-from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.core.registry import Choice
 
 Task = tuple[Any, Any, Path | None]  # (job, options, video dir)
 Worker = Callable[[Any, Any, Path | None], dict[str, Any]]
@@ -32,7 +48,7 @@ class ExecutorConfig(Choice):
     workers: int = 0
 
     def __post_init__(self) -> None:
-        check_positive(type(self).__name__, "workers", self.workers, allow_zero=True)
+        check_count(type(self).__name__, "workers", self.workers, 0)
 
     def n_workers(self) -> int:
         return self.workers or max(1, os.cpu_count() or 1)
@@ -71,6 +87,62 @@ def run_tasks(cfg: ExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[tu
         yield from _run_local(cfg, fn, tasks)
 
 
+WATCH_S = 0.5
+"""How often a pool worker checks that its parent is still alive (the backstop to PR_SET_PDEATHSIG)."""
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Make this process end when ``parent_pid`` (its parent) ends, however the parent ends.
+
+    Linux: ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, then a check that the parent did not die before the
+    call. Everywhere: a daemon thread polling ``os.getppid()`` every ``WATCH_S`` seconds that exits the
+    process when the parent pid changes (the process was re-parented).
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(WATCH_S)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="parent-watchdog", daemon=True).start()
+
+
+def _pool_worker_init(parent_pid: int, quiet: bool) -> None:
+    """Initializer of every local pool worker (runs in the worker)."""
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if quiet:  # the parent's command line is quiet: so are its workers (no third-party warnings)
+        import warnings
+
+        warnings.filterwarnings("ignore")
+        logging.getLogger().setLevel(logging.ERROR)
+
+
+def _terminate_pool(pool: Any) -> None:
+    """Cancel what has not started and end the workers now (not after their running episodes)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + 5.0
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join(1.0)
+
+
 def _run_local(cfg: ExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[tuple[Any, dict[str, Any]]]:
     n = min(cfg.n_workers(), len(tasks))
     if n == 1:
@@ -80,27 +152,42 @@ def _run_local(cfg: ExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[t
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as pool:
+    quiet = logging.getLogger().getEffectiveLevel() > logging.INFO
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn"),
+                               initializer=_pool_worker_init, initargs=(os.getpid(), quiet))
+    finished = False
+    try:
         pending = {pool.submit(fn, *t): t[0] for t in tasks}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    job = pending.pop(fut)
-                    yield job, fut.result()
-        finally:
-            for fut in pending:
-                fut.cancel()
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                job = pending.pop(fut)
+                yield job, fut.result()
+        finished = True
+    finally:
+        if finished:
+            pool.shutdown(wait=True)
+        else:  # interrupted, or the consumer stopped: do not wait for running episodes
+            _terminate_pool(pool)
 
 
 def _run_ray(cfg: RayExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[tuple[Any, dict[str, Any]]]:
     ray = require_ray()
     started = False
+    reaper = None
     if not ray.is_initialized():
+        # Ray logs INFO/WARNING lines of its own (a token-authentication notice, "Started a local Ray
+        # instance"); keep them unless our logging is verbose.
+        level = logging.INFO if logging.getLogger().getEffectiveLevel() <= logging.INFO else logging.ERROR
         if cfg.address:
-            ray.init(address=cfg.address, log_to_driver=False)
+            ray.init(address=cfg.address, log_to_driver=False, logging_level=level)
         else:
-            ray.init(num_cpus=cfg.n_workers(), include_dashboard=False, log_to_driver=False)
+            from code_as_monitor.bench.reaper import Reaper, children_of
+
+            reaper = Reaper()  # follows the local instance's processes, ends them if we die
+            before = children_of(os.getpid())
+            ray.init(num_cpus=cfg.n_workers(), include_dashboard=False, log_to_driver=False, logging_level=level)
+            reaper.watch(children_of(os.getpid()) - before - {reaper.proc.pid})
         started = True
     refs: dict[Any, Any] = {}
     try:
@@ -113,9 +200,10 @@ def _run_ray(cfg: RayExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[
                 yield job, ray.get(ref)
     finally:
         for ref in list(refs):
-            ray.cancel(ref)
+            ray.cancel(ref, force=True)
         if started:
             ray.shutdown()
-
+        if reaper is not None:
+            reaper.close()  # whatever of the instance outlived ray.shutdown (its agents) goes now
 
 __all__ = ["ExecutorConfig", "LocalExecutorConfig", "RayExecutorConfig", "require_ray", "run_tasks"]

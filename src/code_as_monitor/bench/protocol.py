@@ -18,6 +18,7 @@ import hashlib
 from dataclasses import dataclass, field
 from typing import Any
 
+from code_as_monitor.core.checks import check_count
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -131,8 +132,8 @@ class BenchSpec:
                 raise ConfigError(f"unknown method {m!r}; known: {', '.join(METHODS)}")
         for c in self.conditions:
             condition(c)
-        if self.seeds < 1 or self.episodes < 1:
-            raise ConfigError(f"seeds and episodes must be >= 1, got {self.seeds} x {self.episodes}")
+        check_count("BenchSpec", "seeds", self.seeds, 1)
+        check_count("BenchSpec", "episodes", self.episodes, 1)
 
     @classmethod
     def quick(cls, **kw: Any) -> BenchSpec:

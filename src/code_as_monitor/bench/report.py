@@ -1,8 +1,12 @@
 """Reports from a results file: a Markdown table in the paper's layout and a self-contained HTML page.
 
 Rows are conditions, columns methods (CLIPort alone = ``open-loop``, +Inner Monologue, +DoReMi,
-+Ours = ``cam``), success rate and execution time as mean +- 95 % CI (see ``bench.metrics``), then
-VLM cost and our detection metrics. The HTML embeds its plots (PNG, base64): success rate and time
++Ours = ``cam``), success rate and execution time as mean +- the half-width of the 95 % t-interval
+over seeds (over episodes when a cell has one seed; see ``bench.metrics``), then VLM cost and our
+detection metrics. An interval that reaches past what the quantity can take (a success rate below
+0 % or above 100 %, a negative time) is shown clipped, as its bounds ``mean (lo–hi)†``, and the
+report says so. The report names the code versions its records come from and says when it mixes
+several. The HTML embeds its plots (PNG, base64): success rate and time
 per condition with error bars, and the detection latency distribution; and links every cell's sample
 video (relative to the page).
 """
@@ -20,7 +24,9 @@ from typing import Any
 from code_as_monitor.bench.metrics import cell_summary
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import CONDITIONS, METHODS
+from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
+from code_as_monitor.core.errors import RunError
 
 HEADERS = {"open-loop": "CLIPort (open-loop)", "inner-monologue": "+Inner Monologue", "doremi": "+DoReMi",
            "cam": "+Ours (CaM)"}
@@ -33,16 +39,50 @@ def _f(x: float, digits: int = 1) -> str:
     return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
 
 
-def _pm(s: dict[str, Any], digits: int = 1) -> str:
+CLIP_MARK = "†"
+REPORT_KEYS = ("sim_time_s", "vlm", "alarms", "gt")
+"""Keys the report reads from every episode record besides the runner's ``REQUIRED_KEYS``."""
+BOUNDS = {"success": (0.0, 100.0), "time": (0.0, None)}
+
+
+def clipped_interval(s: dict[str, Any], lo: float | None, hi: float | None) -> tuple[float, float, bool]:
+    """(lower, upper, clipped): the interval ``mean +- ci`` cut to ``[lo, hi]``."""
+    m, hw = s["mean"], s["ci"]
+    if hw is None or math.isnan(hw):
+        return m, m, False
+    a, b = m - hw, m + hw
+    ca = max(a, lo) if lo is not None else a
+    cb = min(b, hi) if hi is not None else b
+    return ca, cb, (ca, cb) != (a, b)
+
+
+def _pm(s: dict[str, Any], digits: int = 1, bounds: tuple[float | None, float | None] = (None, None)) -> str:
     if s is None or math.isnan(s["mean"]):
         return "—"
+    a, b, clipped = clipped_interval(s, *bounds)
+    if clipped:
+        return f"{s['mean']:.{digits}f} ({a:.{digits}f}–{b:.{digits}f}){CLIP_MARK}"
     return f"{s['mean']:.{digits}f} ± {_f(s['ci'], digits)}"
 
 
+def _check_records(path: str | Path, recs: list[dict[str, Any]]) -> None:
+    if not recs:
+        raise RunError(f"results {path}: no episode records (empty, or not a cam bench results file)")
+    for i, r in enumerate(recs):
+        missing = [k for k in REPORT_KEYS if k not in r]
+        if missing:
+            raise RunError(f"results {path}: episode record {i + 1} ({r['condition']} {r['method']} s{r['seed']}"
+                           f"e{r['episode']}) lacks {', '.join(missing)}")
+
+
 def summarise(path: str | Path) -> dict[str, Any]:
-    """Cells, sessions and wall time of a results file."""
+    """Cells, sessions, wall time and code versions of a results file.
+
+    Raises RunError for a file without episode records or with records lacking what the report reads.
+    """
     lines = read_results(path)
     recs = episode_records(lines)
+    _check_records(path, recs)
     cells: dict[tuple[str, str], dict[str, Any]] = {}
     present_c = [c for c in CONDITIONS if any(r["condition"] == c.id for r in recs)]
     present_m = [m for m in METHODS if any(r["method"] == m for r in recs)]
@@ -52,9 +92,41 @@ def summarise(path: str | Path) -> dict[str, Any]:
             if rs:
                 cells[(c.id, m)] = {**cell_summary(rs, c.undisturbed),
                                     "video": next((r["video"] for r in rs if r.get("video")), None)}
+    known_c, known_m = {c.id for c in present_c}, set(present_m)
+    ignored = sorted({f"{r['condition']}/{r['method']}" for r in recs
+                      if r["condition"] not in known_c or r["method"] not in known_m})
     return {"conditions": present_c, "methods": present_m, "cells": cells, "records": recs,
             "wall_s": wall_time(lines), "options": next((r["options"] for r in lines if r.get("kind") == "bench_start"),
-                                                        {})}
+                                                        {}),
+            "versions": versions_of(recs), "ignored": ignored,
+            "git": {str(r.get("code_version")): r["git"] for r in lines
+                    if r.get("kind") == "bench_start" and r.get("git") and r.get("code_version")}}
+
+
+def interval_note(summary: dict[str, Any]) -> str:
+    """What the ± means in this report's tables (over seeds, or over episodes for one-seed cells)."""
+    overs = {k[key]["ci_over"] for k in summary["cells"].values() for key in ("success", "time")}
+    ns = sorted({k["success"]["n"] for k in summary["cells"].values()})
+    if overs == {"seeds"}:
+        how = f"over seeds (the per-seed means; n = {', '.join(map(str, ns))} seeds)"
+    elif overs == {"episodes"}:
+        how = (f"over episodes, as each cell has a single seed (n = {', '.join(map(str, ns))} episodes); not "
+               "comparable with the paper's intervals over seeds")
+    else:
+        how = "over seeds where a cell has several, over episodes where it has one"
+    return (f"Values: mean ± half-width of the 95 % t-interval (t(0.975, n−1) · sd / √n) {how}; no interval "
+            f"with n = 1. {CLIP_MARK} the interval reaches past 0–100 % (success) or below 0 s (time) and is "
+            "shown as its bounds, clipped to that range.")
+
+
+def versions_note(summary: dict[str, Any]) -> str:
+    """Which code versions made the records (and a warning when the table mixes several)."""
+    vs, git = summary["versions"], summary.get("git", {})
+    listed = ", ".join(f"`{v}`{f' (git {git[v]})' if v in git else ''}: {n} record(s)" for v, n in vs.items())
+    if len(vs) <= 1:
+        return f"Code version of every record: {listed}."
+    return (f"**Mixed code versions**: the table pools records made by {len(vs)} code versions: {listed}. "
+            "Re-run `cam bench` on this file without `--keep-stale` to bring every record to the current code.")
 
 
 def wall_time(lines: list[dict[str, Any]]) -> float:
@@ -75,18 +147,21 @@ def wall_time(lines: list[dict[str, Any]]) -> float:
 def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     """The Markdown tables (ours; the paper's beside it; cost; detection)."""
     ms, cs, cells = summary["methods"], summary["conditions"], summary["cells"]
-    out = ["| Condition | n/cell | " + " | ".join(f"SR {HEADERS[m]}" for m in ms) + " | "
-           + " | ".join(f"Time {HEADERS[m]}" for m in ms if m != "open-loop") + " |",
-           "|---|---|" + "---|" * (len(ms) + len([m for m in ms if m != "open-loop"]))]
+    checking = [m for m in ms if m != "open-loop"]  # the methods that time themselves and raise alarms
+    heads = ["Condition", "n/cell"] + [f"SR {HEADERS[m]}" for m in ms] + [f"Time {HEADERS[m]}" for m in checking]
+    out = [interval_note(summary), "", "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for c in cs:
         row = [c.label, str(min((cells[(c.id, m)]["n"] for m in ms if (c.id, m) in cells), default=0))]
-        row += [_pm(cells[(c.id, m)]["success"]) if (c.id, m) in cells else "—" for m in ms]
-        row += [_pm(cells[(c.id, m)]["time"]) if (c.id, m) in cells else "—" for m in ms if m != "open-loop"]
+        row += [_pm(cells[(c.id, m)]["success"], bounds=BOUNDS["success"]) if (c.id, m) in cells else "—"
+                for m in ms]
+        row += [_pm(cells[(c.id, m)]["time"], bounds=BOUNDS["time"]) if (c.id, m) in cells else "—"
+                for m in ms if m != "open-loop"]
         out.append("| " + " | ".join(row) + " |")
     if with_paper:
         caption = ("Paper (Table 2, OmniGibson, 10 runs per setting; open-loop = ReKep alone; time per task):"
                    if cs and all(c.suite == "table2" for c in cs)
-                   else "Paper (supplementary table, 5 seeds x 12 episodes):")
+                   else "Paper (supplementary table, 5 seeds x 12 episodes; ± as printed there, a 95 % "
+                        "interval over seeds):")
         out += ["", caption, "",
                 "| Condition | " + " | ".join(f"SR {HEADERS[m]}" for m in METHODS) + " | "
                 + " | ".join(f"Time {HEADERS[m]}" for m in METHODS[1:]) + " |",
@@ -105,11 +180,12 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
             row.append("—" if k is None else f"{_f(k['cost']['calls'])} / {_f(k['cost']['tokens'], 0)} / "
                        f"{_f(k['cost']['wall_s'])} s")
         out.append("| " + " | ".join(row) + " |")
-    out += ["", "Detection (ours, against the simulator's ground truth): recall (detected/failures), median "
-            "latency s, unmatched alarms per episode, proactive precision (confirmed/rollouts), median lead s:", "",
-            "| Condition | " + " | ".join(HEADERS[m] for m in ms if m != "open-loop") + " |",
-            "|---|" + "---|" * len([m for m in ms if m != "open-loop"])]
-    for c in cs:
+    if checking:
+        out += ["", "Detection (ours, against the simulator's ground truth): recall (detected/failures), median "
+                "latency s, unmatched alarms per episode, proactive precision (confirmed/rollouts), median lead s:",
+                "", "| Condition | " + " | ".join(HEADERS[m] for m in checking) + " |",
+                "|---|" + "---|" * len(checking)]
+    for c in cs if checking else []:
         row = [c.label]
         for m in ms:
             if m == "open-loop":
@@ -127,7 +203,10 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
         out.append("| " + " | ".join(row) + " |")
     errs = sum(k["errors"] for k in cells.values())
     out += ["", f"Episodes: {len(summary['records'])}, errors: {errs}; wall time of the sessions: "
-            f"{summary['wall_s'] / 60:.1f} min.", "", STANDIN_NOTE]
+            f"{summary['wall_s'] / 60:.1f} min.", "", versions_note(summary)]
+    if summary.get("ignored"):
+        out += ["", f"Not shown (unknown condition or method): {', '.join(summary['ignored'])}."]
+    out += ["", STANDIN_NOTE]
     return "\n".join(out) + "\n"
 
 
@@ -149,12 +228,21 @@ def plots(summary: dict[str, Any]) -> dict[str, str]:
     out = {}
     x = np.arange(len(cs))
     w = 0.8 / max(len(ms), 1)
-    for key, title in (("success", "Success rate (%)"), ("time", "Execution time (sim s)")):
+    for key, title in (("success", "Success rate (%), 95 % t-interval clipped to [0, 100]"),
+                       ("time", "Execution time (sim s), 95 % t-interval")):
         fig, ax = plt.subplots(figsize=(10, 3.4))
         for i, m in enumerate(ms):
-            mean = [cells[(c.id, m)][key]["mean"] if (c.id, m) in cells else np.nan for c in cs]
-            ci = [cells[(c.id, m)][key]["ci"] if (c.id, m) in cells else np.nan for c in cs]
-            ax.bar(x + (i - (len(ms) - 1) / 2) * w, mean, w, yerr=np.nan_to_num(ci), capsize=2, label=HEADERS[m])
+            mean, err = [], []
+            for c in cs:
+                k = cells.get((c.id, m))
+                if k is None or math.isnan(k[key]["mean"]):
+                    mean.append(np.nan)
+                    err.append((0.0, 0.0))
+                    continue
+                lo, hi, _ = clipped_interval(k[key], *BOUNDS[key])  # bars never cross 0 % or 100 %
+                mean.append(k[key]["mean"])
+                err.append((k[key]["mean"] - lo, hi - k[key]["mean"]))
+            ax.bar(x + (i - (len(ms) - 1) / 2) * w, mean, w, yerr=np.array(err).T, capsize=2, label=HEADERS[m])
         ax.set_xticks(x, [c.id for c in cs], rotation=20)
         ax.set_title(title)
         ax.legend(fontsize=7, ncol=len(ms))
@@ -174,12 +262,18 @@ def plots(summary: dict[str, Any]) -> dict[str, str]:
 
 
 def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
-    """Write ``report.md`` and ``report.html`` (self-contained) into ``out_dir``; returns their paths."""
+    """Write ``report.md`` and ``report.html`` (self-contained) into ``out_dir``; returns their paths.
+
+    Raises RunError when ``results`` is not a usable results file (see :func:`summarise`) or
+    ``out_dir`` exists and is not a directory; nothing is written then.
+    """
     import markdown_it
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     s = summarise(results)
+    if out.exists() and not out.is_dir():
+        raise RunError(f"report directory {out} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
     title = "Table 2 benchmark" if s["conditions"] and all(c.suite == "table2" for c in s["conditions"]) \
         else "CLIPort benchmark"
     md = f"# {title}\n\nResults: `{results}`\n\n" + markdown(s)
@@ -203,4 +297,5 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     return out / "report.md", out / "report.html"
 
 
-__all__ = ["HEADERS", "STANDIN_NOTE", "markdown", "plots", "summarise", "wall_time", "write_report"]
+__all__ = ["HEADERS", "STANDIN_NOTE", "clipped_interval", "interval_note", "markdown", "plots", "summarise",
+           "versions_note", "wall_time", "write_report"]

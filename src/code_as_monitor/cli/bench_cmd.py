@@ -1,26 +1,30 @@
 """``cam bench``: the CLIPort benchmark (paper Table 1) in our simulator, resumable.
 
-    cam bench --quick                                   # 1 seed x 4 episodes per condition
-    cam bench --results results/cliport.jsonl           # full: 5 seeds x 12 episodes (resumes)
+    cam bench --quick                                   # 1 seed x 4 episodes -> runs/bench/cliport-quick.jsonl
+    cam bench --results runs/bench/cliport.jsonl        # full: 5 seeds x 12 episodes (resumes)
     cam bench --methods cam,doremi --conditions stack-p0.3,stack-q3 --seeds 2 --episodes 3
     cam bench --executor ray [--ray-address auto]       # needs the `ray` extra
 
 Per-episode records are appended to --results as they finish; re-running the same command skips
-finished episodes. Offline (--backend kb) the baselines' VQA is `vqa-standin`, a rule-based
+finished episodes made by the same code version (episodes made by other code are run again unless
+--keep-stale). One `cam bench` at a time per results file (it is locked). The default results file is
+under runs/bench/ (not tracked); the published results are in results/published/ and are never
+written by default. Offline (--backend kb) the baselines' VQA is `vqa-standin`, a rule-based
 single-image stand-in, not a VLM. Then: cam report <results>.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import signal
 from pathlib import Path
+from typing import Any
 
+from code_as_monitor.cli import validate as v
 from code_as_monitor.core.errors import ConfigError
 
-
-def _csv(s: str) -> list[str]:
-    return [x.strip() for x in s.split(",") if x.strip()]
+RESULTS_DIR = Path("runs/bench")
+"""Where results go by default (untracked); published results live in results/published/."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -30,26 +34,38 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--suite", choices=("cliport", "table2"), default="cliport",
                    help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
                         "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam)")
-    p.add_argument("--seeds", type=int, default=None, help="seeds per cell (default 5, quick 1)")
-    p.add_argument("--episodes", type=int, default=None, help="episodes per seed (default 12, quick 4)")
-    p.add_argument("--methods", type=_csv, default=None, help="comma list (default: all four)")
-    p.add_argument("--conditions", type=_csv, default=None, help="comma list of condition ids (default: all)")
-    p.add_argument("--results", type=Path, default=None,
-                   help="JSONL results file (default results/cliport.jsonl, quick: results/cliport-quick.jsonl)")
-    p.add_argument("--runs-dir", type=Path, default=Path("runs/bench"),
+    p.add_argument("--seeds", type=v.count(1), default=None, help="seeds per cell (default 5, quick 1)")
+    p.add_argument("--episodes", type=v.count(1), default=None, help="episodes per seed (default 12, quick 4)")
+    p.add_argument("--methods", type=v.csv, default=None, help="comma list (default: all four)")
+    p.add_argument("--conditions", type=v.csv, default=None, help="comma list of condition ids (default: all)")
+    p.add_argument("--results", type=v.results_file, default=None,
+                   help="JSONL results file, created or resumed (default runs/bench/<suite>.jsonl, quick: "
+                        "runs/bench/<suite>-quick.jsonl)")
+    p.add_argument("--keep-stale", action="store_true",
+                   help="keep finished episodes made by another code version instead of running them again")
+    p.add_argument("--runs-dir", type=v.output_dir, default="runs/bench",
                    help="sample videos go here (seed 0, episode 0 of each cell)")
     p.add_argument("--no-videos", action="store_true", help="record no sample videos")
     p.add_argument("--executor", default="local", help="local (process pool, default) or ray")
-    p.add_argument("--workers", type=int, default=0, help="episodes at once (default: one per CPU)")
+    p.add_argument("--workers", type=v.count(0), default=0, help="episodes at once (default: one per CPU)")
     p.add_argument("--ray-address", default=None, help="existing Ray cluster (default: a local instance)")
     p.add_argument("--backend", default="kb", help="VLM backend: kb (offline stand-in) or openai")
-    p.add_argument("--backend-options", type=json.loads, default={}, help="JSON object of backend options")
-    p.add_argument("--doremi-k", type=float, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
+    p.add_argument("--backend-options", type=v.json_object, default={}, help="JSON object of backend options")
+    p.add_argument("--doremi-k", type=v.positive, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
     p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle) or lk (default sim)")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--no-counterfactual", action="store_true", help="skip counterfactual rollouts")
     p.add_argument("--list", action="store_true", help="list conditions and methods")
     p.set_defaults(func=run)
+
+
+def _sigterm_as_interrupt() -> None:
+    """SIGTERM ends a sweep like Ctrl-C: the pool is cancelled and its workers ended, nothing half-written."""
+
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,9 +79,10 @@ def run(args: argparse.Namespace) -> int:
         print("methods:", ", ".join(METHODS))
         return 0
     suite = SUITE_DEFAULTS[args.suite]
-    seeds = args.seeds or (QUICK[0] if args.quick else suite["seeds"])
-    episodes = args.episodes or (QUICK[1] if args.quick else suite["episodes"])
-    results = args.results or Path(f"results/{args.suite}{'-quick' if args.quick else ''}.jsonl")
+    seeds = args.seeds if args.seeds is not None else (QUICK[0] if args.quick else suite["seeds"])
+    episodes = args.episodes if args.episodes is not None else (QUICK[1] if args.quick else suite["episodes"])
+    results = args.results or v.check_results_file(
+        RESULTS_DIR / f"{args.suite}{'-quick' if args.quick else ''}.jsonl", "--results")
     options = {"backend": args.backend, "backend_options": args.backend_options, "doremi_k_s": args.doremi_k,
                "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual}
     kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
@@ -74,25 +91,76 @@ def run(args: argparse.Namespace) -> int:
     if args.conditions:
         kw["conditions"] = args.conditions
     spec = BenchSpec(seeds=seeds, episodes=episodes, options=options, **kw)
+    _check_options(options)
     ex_kw: dict = {"workers": args.workers}
     if args.executor == "ray":
         ex_kw["address"] = args.ray_address
     elif args.ray_address:
         raise ConfigError("--ray-address needs --executor ray")
     executor = ExecutorConfig.from_name(args.executor, **ex_kw)
-    results.parent.mkdir(parents=True, exist_ok=True)
+    if args.executor == "ray":
+        from code_as_monitor.bench.executors import require_ray
 
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
+        require_ray()
+    _sigterm_as_interrupt()
+    runs_dir = None if args.no_videos else args.runs_dir
+    with _Progress(results) as (on_start, on_result):
+        out = run_bench(spec, results, executor, runs_dir, on_result, on_start, keep_stale=args.keep_stale)
+    stale = (f", {out['stale']} made by other code {'kept' if args.keep_stale else 'run again'}"
+             if out["stale"] else "")
+    print(f"{out['ran']} episode(s) run, {out['skipped']} skipped{stale}, {out['wall_s'] / 60:.1f} min -> {results}")
+    print(f"report: cam report {results}")
+    return 0
 
-    with Progress(TextColumn("[bold]cam bench"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TimeRemainingColumn(), TextColumn("{task.description}")) as bar:
+
+def _check_options(options: dict[str, Any]) -> None:
+    """The method options as the episodes will see them: unknown backends/trackers/segmenters are one
+    line now, not an error record per episode later."""
+    from code_as_monitor.bench.episode import EpisodeOptions
+    from code_as_monitor.perception import SegmenterConfig, TrackerConfig
+    from code_as_monitor.vlm import VLMBackendConfig
+
+    EpisodeOptions(**options)
+    VLMBackendConfig.from_name(options["backend"], **options["backend_options"])
+    TrackerConfig.get_class(options["tracker"])
+    SegmenterConfig.get_class(options["segmenter"])
+
+
+class _Progress:
+    """Context giving ``(on_start, on_result)`` callbacks: a rich bar on a terminal, else plain lines."""
+
+    def __init__(self, results: Path) -> None:
+        self.results = results
+        self.bar: Any = None
+
+    def __enter__(self) -> tuple[Any, Any]:
+        from code_as_monitor.cli.progress import ProgressLines, is_terminal
+
+        results = self.results
+        if not is_terminal():
+            lines = ProgressLines("cam bench", "episodes")
+
+            def on_start_plain(pending: int, skipped: int) -> None:
+                lines.start(pending)
+                note = f" ({skipped} finished episode(s) skipped)" if skipped else ""
+                print(f"cam bench: {pending} episode(s) to run -> {results}{note}", flush=True)
+
+            def on_result_plain(job: Any, rec: dict[str, Any], done: int, total: int) -> None:
+                lines.update(done, f"{job.condition} {job.method} s{job.seed}e{job.episode} {_mark(rec)}")
+
+            return on_start_plain, on_result_plain
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.bar = bar = Progress(TextColumn("[bold]cam bench"), BarColumn(), MofNCompleteColumn(),
+                                  TimeElapsedColumn(), TimeRemainingColumn(), TextColumn("{task.description}"))
+        bar.__enter__()
         task = bar.add_task("", total=None)
 
         def on_start(pending: int, skipped: int) -> None:
@@ -100,12 +168,16 @@ def run(args: argparse.Namespace) -> int:
             if skipped:
                 bar.console.print(f"resuming {results}: {skipped} finished episode(s) skipped")
 
-        def on_result(job, rec, done: int, total: int) -> None:
-            mark = "ok" if rec.get("success") else ("ERROR" if rec.get("error") else "fail")
+        def on_result(job: Any, rec: dict[str, Any], done: int, total: int) -> None:
             bar.update(task, completed=done,
-                       description=f"{job.condition} {job.method} s{job.seed}e{job.episode} {mark}")
+                       description=f"{job.condition} {job.method} s{job.seed}e{job.episode} {_mark(rec)}")
 
-        out = run_bench(spec, results, executor, None if args.no_videos else args.runs_dir, on_result, on_start)
-    print(f"{out['ran']} episode(s) run, {out['skipped']} skipped, {out['wall_s'] / 60:.1f} min -> {results}")
-    print(f"report: cam report {results}")
-    return 0
+        return on_start, on_result
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(*exc)
+
+
+def _mark(rec: dict[str, Any]) -> str:
+    return "ok" if rec.get("success") else ("ERROR" if rec.get("error") else "fail")

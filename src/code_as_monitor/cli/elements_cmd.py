@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 
+from code_as_monitor.cli import validate as v
+
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -18,10 +20,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--noise-mm", type=float, default=2.0, help="Gaussian depth noise sigma in mm (default 2)")
+    p.add_argument("--seed", type=v.seed, default=0, help="noise seed (default 0)")
+    p.add_argument("--noise-mm", type=v.non_negative, default=2.0, help="Gaussian depth noise sigma in mm (default 2)")
     p.add_argument(
-        "--outliers", type=float, default=0.01,
+        "--outliers", type=v.probability, default=0.01,
         help="fraction of object pixels given a random wrong depth, in [0, 1] (default 0.01)",
     )
     p.set_defaults(func=run)

@@ -11,9 +11,11 @@ import argparse
 import importlib
 import logging
 import sys
+import warnings
 from collections.abc import Sequence
 
 from code_as_monitor import __version__
+from code_as_monitor.cli.validate import CamArgumentParser, check_namespace
 from code_as_monitor.core.errors import CamError
 
 # Order shown in `cam --help`. A module that does not exist yet is skipped.
@@ -29,7 +31,7 @@ COMMAND_MODULES: tuple[str, ...] = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = CamArgumentParser(
         prog="cam",
         description=(
             "Code-as-Monitor: constraint-aware visual programming for reactive and proactive robotic "
@@ -51,22 +53,53 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def quiet_third_party(verbose: int) -> None:
+    """Keep other libraries' chatter out of our output unless ``-v`` asks for it: Python warnings
+    (deprecations and the like) and the INFO/WARNING log lines of libraries that log on their own
+    (Ray's token-authentication notice, for one). Our own log warnings still print."""
+    if verbose:
+        return
+    warnings.filterwarnings("ignore")
+    for name in ("ray", "matplotlib", "PIL", "httpx", "openai", "urllib3", "numba"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Parse, validate and run one command; returns the exit status.
+
+    0 done; 1 the command ran and reports a failure (``cam run``: the task failed); 2 a bad argument,
+    path or file (one line on stderr, nothing created); 130 interrupted.
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a bad argument (already printed as one line) is an exit status, not an exit
+        if exc.code == 2:
+            return 2
+        raise
     level = {0: logging.WARNING, 1: logging.INFO}.get(args.verbose, logging.DEBUG)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    quiet_third_party(args.verbose)
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
     try:
+        check_namespace(args)
         return int(args.func(args) or 0)
     except CamError as exc:
-        print(f"cam {args.command}: error: {exc}", file=sys.stderr)
+        print(f"cam {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path the checks could not foresee (a disk that filled up, a file that vanished)
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"cam {args.command}: error:{where}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"cam {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 if __name__ == "__main__":

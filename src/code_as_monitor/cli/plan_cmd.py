@@ -12,6 +12,8 @@ import argparse
 import json
 from typing import Any
 
+from code_as_monitor.cli import validate as v
+
 DESCRIPTION = "Plan an instruction: subgoals with their during/upon constraints (and optionally monitor code)."
 
 
@@ -26,15 +28,16 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--model", default="gpt-4o", help="model name (openai)")
     p.add_argument("--api-key-env", default="OPENAI_API_KEY",
                    help="environment variable with the API key; 'none' for a local server without keys")
-    p.add_argument("--timeout", type=float, default=60.0, help="per-request timeout, seconds (openai)")
-    p.add_argument("--max-retries", type=int, default=3, help="retries on 429/5xx/timeouts (openai)")
+    p.add_argument("--timeout", type=v.positive, default=60.0, help="per-request timeout, seconds (openai)")
+    p.add_argument("--max-retries", type=v.count(0), default=3, help="retries on 429/5xx/timeouts (openai)")
     p.add_argument("--objects", default=None,
                    help="comma-separated scene objects (default: inferred from the instruction)")
     p.add_argument("--image", action="append", default=[], metavar="[VIEW=]PATH",
                    help="an image of the scene for the model (repeatable); the view name defaults to the file stem")
-    p.add_argument("--cassette", default=None, help="cassette to replay (--backend replay)")
-    p.add_argument("--record", default=None, metavar="PATH", help="record the session to this cassette")
-    p.add_argument("--max-subgoals", type=int, default=None,
+    p.add_argument("--cassette", type=v.input_file, default=None, help="cassette to replay (--backend replay)")
+    p.add_argument("--record", type=v.new_file, default=None, metavar="PATH",
+                   help="record the session to this cassette (a new file)")
+    p.add_argument("--max-subgoals", type=v.count(1), default=None,
                    help="stop after this many subgoals (default: 12 for kb/replay, 1 for openai)")
     p.add_argument("--code", action="store_true", help="also write and print the monitor program of each subgoal")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of text")
@@ -75,7 +78,7 @@ def _backend(args: argparse.Namespace) -> tuple[Any, str]:
     if args.backend == "replay":
         if not args.cassette:
             raise ConfigError("--backend replay needs --cassette FILE")
-        cfg: VLMBackendConfig = ReplayBackendConfig(cassette=args.cassette, mode="replay")
+        cfg: VLMBackendConfig = ReplayBackendConfig(cassette=str(args.cassette), mode="replay")
         return make_backend(cfg), f"replay of {args.cassette}"
     if args.backend == "openai":
         inner = OpenAIBackendConfig(model=args.model, base_url=args.base_url, api_key_env=args.api_key_env,
@@ -85,7 +88,7 @@ def _backend(args: argparse.Namespace) -> tuple[Any, str]:
         inner = KBBackendConfig()
         label = KB_DESCRIPTION
     if args.record:
-        return make_backend(ReplayBackendConfig(cassette=args.record, mode="record", inner=inner)), (
+        return make_backend(ReplayBackendConfig(cassette=str(args.record), mode="record", inner=inner)), (
             f"{label}, recorded to {args.record}")
     return make_backend(inner), label
 

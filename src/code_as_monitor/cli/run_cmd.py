@@ -12,31 +12,31 @@ summary.json. The default backend `kb` is a rule-based stand-in for a VLM (not a
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
+from code_as_monitor.cli import validate as v
 from code_as_monitor.core.errors import ConfigError
 
 
 def add_common(p: argparse.ArgumentParser) -> None:
     """Options shared by ``cam run`` and ``cam demo``."""
-    p.add_argument("--seed", type=int, default=None, help="episode seed")
-    p.add_argument("--p", type=float, default=None, help="drop probability per decision step (stack-in-order)")
-    p.add_argument("--q", type=float, default=None, help="placement noise bound in cm (stack-in-order)")
+    p.add_argument("--seed", type=v.seed, default=None, help="episode seed")
+    p.add_argument("--p", type=v.probability, default=None, help="drop probability per decision step (stack-in-order)")
+    p.add_argument("--q", type=v.non_negative, default=None, help="placement noise bound in cm (stack-in-order)")
     p.add_argument("--backend", default="kb",
                    help="VLM backend: kb (offline rule-based stand-in, default), openai, replay")
     p.add_argument("--base-url", default=None, help="OpenAI-compatible server URL (openai backend)")
     p.add_argument("--model", default=None, help="model name (openai backend)")
     p.add_argument("--api-key-env", default=None,
                    help="environment variable holding the API key (default OPENAI_API_KEY; 'none' for none)")
-    p.add_argument("--cassette", type=Path, default=None, help="JSONL cassette (replay backend)")
+    p.add_argument("--cassette", type=v.input_file, default=None, help="JSONL cassette (replay backend)")
     p.add_argument("--segmenter", default="sim", help="segmenter: sim (ground-truth masks, default), color, http")
     p.add_argument("--tracker", default="lk", help="tracker: lk (OpenCV Lucas-Kanade, default), sim (oracle)")
     p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
-    p.add_argument("--camera-hz", type=float, default=10.0, help="monitoring/camera rate, Hz (default 10)")
+    p.add_argument("--camera-hz", type=v.positive, default=10.0, help="monitoring/camera rate, Hz (default 10)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
-    p.add_argument("--runs", type=Path, default=Path("runs"), help="parent of the run directory (default runs/)")
-    p.add_argument("--max-replans", type=int, default=30, help="failed subgoals allowed (default 30)")
+    p.add_argument("--runs", type=v.output_dir, default="runs", help="parent of the run directory (default runs/)")
+    p.add_argument("--max-replans", type=v.count(0), default=30, help="failed subgoals allowed (default 30)")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
 
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
+from code_as_monitor.cli import validate as v
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -19,16 +19,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("task", nargs="?", help="task id (see --list)")
     p.add_argument("--list", action="store_true", help="list the tasks and their parameters")
-    p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
-    p.add_argument("--p", type=float, default=None, help="drop probability per decision (stack-in-order)")
-    p.add_argument("--q", type=float, default=None, help="placement noise bound, cm (stack-in-order)")
+    p.add_argument("--seed", type=v.seed, default=0, help="episode seed (default 0)")
+    p.add_argument("--p", type=v.probability, default=None, help="drop probability per decision (stack-in-order)")
+    p.add_argument("--q", type=v.non_negative, default=None, help="placement noise bound, cm (stack-in-order)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any task config field (VALUE parsed as JSON, else a string); repeatable")
-    p.add_argument("--video", type=Path, default=None, help="write an mp4 of the front+top views here")
-    p.add_argument("--events", type=Path, default=None,
+    p.add_argument("--video", type=v.new_file, default=None, help="write an mp4 of the front+top views here")
+    p.add_argument("--events", type=v.new_file, default=None,
                    help="ground-truth event log (JSONL); default: next to --video as <stem>.events.jsonl")
     p.add_argument("--renderer", choices=("tiny", "egl"), default="tiny", help="renderer (default tiny)")
-    p.add_argument("--camera-hz", type=float, default=10.0, help="video frame rate, Hz (default 10)")
+    p.add_argument("--camera-hz", type=v.positive, default=10.0, help="video frame rate, Hz (default 10)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 
@@ -68,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.task:
         raise ConfigError("cam sim: give a task id (see `cam sim --list`)")
+    import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
     from code_as_monitor.sim.episode import run_open_loop
+    from code_as_monitor.sim.tasks.base import TaskConfig
     from code_as_monitor.sim.world import WorldConfig
 
     cfg = _parse_set(args.set)
@@ -76,9 +78,14 @@ def run(args: argparse.Namespace) -> int:
         cfg["p"] = args.p
     if args.q is not None:
         cfg["q"] = args.q
+    TaskConfig.from_name(args.task, **cfg)  # a bad task id or field is one line before anything is written
     events = args.events
     if events is None and args.video is not None:
-        events = args.video.with_name(args.video.stem + ".events.jsonl")
+        events = v.check_new_file(args.video.with_name(args.video.stem + ".events.jsonl"), "--events")
+    if args.video is not None and args.video.suffix.lower() != ".mp4":
+        raise ConfigError(f"--video {args.video}: the video is an MP4; give a path ending in .mp4")
+    if events is not None and args.video is not None and events.absolute() == args.video.absolute():
+        raise ConfigError(f"--events and --video are the same file {events}")
     wc = WorldConfig(renderer=args.renderer, camera_hz=args.camera_hz)
     res = run_open_loop(args.task, seed=args.seed, world_config=wc, video=args.video, events_path=events, **cfg)
     if args.json:

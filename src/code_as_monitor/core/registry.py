@@ -25,7 +25,10 @@ import dataclasses
 import importlib
 from typing import Any, ClassVar, TypeVar
 
+from code_as_monitor.core.checks import check_fields, check_positive, check_probability
 from code_as_monitor.core.errors import ConfigError, UnknownChoiceError
+
+__all__ = ["Choice", "build_lazily", "check_positive", "check_probability"]
 
 C = TypeVar("C", bound="Choice")
 
@@ -74,7 +77,9 @@ class Choice:
 
     @classmethod
     def from_name(cls: type[C], name: str, **kwargs: Any) -> C:
-        """Build the config registered as ``name`` with ``kwargs``; unknown fields are a ConfigError."""
+        """Build the config registered as ``name`` with ``kwargs``; unknown fields, and values of the
+        wrong type for plain ``float``/``int``/``str``/``bool`` fields (a string for a number, NaN, inf),
+        are a ConfigError naming the field and the value."""
         sub = cls.get_class(name)
         if dataclasses.is_dataclass(sub):
             fields = {f.name for f in dataclasses.fields(sub)}
@@ -83,6 +88,7 @@ class Choice:
                 raise ConfigError(
                     f"{name}: unknown option(s) {', '.join(bad)}; known: {', '.join(sorted(fields))}"
                 )
+            check_fields(name, sub, kwargs)
         return sub(**kwargs)
 
     def to_dict(self) -> dict[str, Any]:
@@ -91,20 +97,6 @@ class Choice:
         if dataclasses.is_dataclass(self):
             out.update(dataclasses.asdict(self))
         return out
-
-
-def check_positive(owner: str, field: str, value: float, allow_zero: bool = False) -> None:
-    """Raise ConfigError naming ``owner.field`` when ``value`` is not positive (or non-negative)."""
-    ok = value >= 0 if allow_zero else value > 0
-    if not ok:
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ConfigError(f"{owner}.{field} must be {bound}, got {value!r}")
-
-
-def check_probability(owner: str, field: str, value: float) -> None:
-    """Raise ConfigError naming ``owner.field`` when ``value`` is not in [0, 1]."""
-    if not 0.0 <= value <= 1.0:
-        raise ConfigError(f"{owner}.{field} must be in [0, 1], got {value!r}")
 
 
 def build_lazily(implementations: dict[str, str], config: Choice, stage: str) -> Any:

@@ -20,16 +20,72 @@ def _scale(img: np.ndarray) -> float:
     return max(0.5, min(img.shape[0], img.shape[1]) / 480.0)
 
 
-def _label(img: np.ndarray, text: str, org: tuple[int, int], color: tuple[int, int, int], s: float) -> None:
+def _label_size(text: str, s: float) -> tuple[int, int, int]:
+    """(width, height, baseline) in pixels of a label at scale ``s``."""
+    (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.55 * s, max(1, round(1.5 * s)))
+    return w, h, base
+
+
+def _label(img: np.ndarray, text: str, org: tuple[int, int], color: tuple[int, int, int], s: float,
+           alpha: float = 1.0) -> tuple[int, int, int, int]:
+    """Draw ``text`` on a dark backing with its baseline-left corner near ``org`` (kept inside the image);
+    ``alpha`` < 1 draws it faded into the picture. Returns the backing box (x0, y0, x1, y1)."""
     font = cv2.FONT_HERSHEY_SIMPLEX
     fs = 0.55 * s
     th = max(1, round(1.5 * s))
-    (w, h), base = cv2.getTextSize(text, font, fs, th)
+    w, h, base = _label_size(text, s)
     x, y = org
-    x = int(np.clip(x, 0, img.shape[1] - w - 4))
-    y = int(np.clip(y, h + 4, img.shape[0] - base - 2))
-    cv2.rectangle(img, (x - 2, y - h - 3), (x + w + 2, y + base + 1), (20, 20, 20), -1)
-    cv2.putText(img, text, (x, y), font, fs, tuple(int(c) for c in color), th, cv2.LINE_AA)
+    x = int(np.clip(x, 2, max(2, img.shape[1] - w - 4)))
+    y = int(np.clip(y, h + 4, max(h + 4, img.shape[0] - base - 2)))
+    box = (x - 2, y - h - 3, x + w + 2, y + base + 1)
+    target = img if alpha >= 1.0 else img.copy()
+    cv2.rectangle(target, box[:2], box[2:], (20, 20, 20), -1)
+    cv2.putText(target, text, (x, y), font, fs, tuple(int(c) for c in color), th, cv2.LINE_AA)
+    if alpha < 1.0:
+        x0, y0 = max(0, box[0]), max(0, box[1])
+        x1, y1 = min(img.shape[1], box[2] + 1), min(img.shape[0], box[3] + 1)
+        img[y0:y1, x0:x1] = cv2.addWeighted(target[y0:y1, x0:x1], alpha, img[y0:y1, x0:x1], 1 - alpha, 0)
+    return box
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> int:
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    return max(0, w) * max(0, h)
+
+
+def place_labels(anchors: list[tuple[int, int]], sizes: list[tuple[int, int, int]], shape: tuple[int, ...],
+                 r: int) -> list[tuple[int, int]]:
+    """Baseline-left origins for labels of ``sizes`` (w, h, baseline) next to ``anchors`` (u, v pixels),
+    chosen greedily so that no two backings overlap where the image leaves room.
+
+    Each label tries the four corners around its anchor at one, two and three marker radii ``r``
+    (up-right first, as a single label is drawn) and takes the first spot inside the image that
+    overlaps no label placed before it; failing that, the spot with the least overlap.
+    """
+    placed: list[tuple[int, int, int, int]] = []
+    out: list[tuple[int, int]] = []
+    H, W = shape[0], shape[1]
+    for (u, v), (w, h, base) in zip(anchors, sizes):
+        best, best_cost = None, None
+        for k in (1, 2, 3):
+            d = k * r + 2
+            for dx, dy in ((d, -d), (d, d + h), (-d - w, -d), (-d - w, d + h)):
+                x, y = u + dx, v + dy
+                x = int(np.clip(x, 2, max(2, W - w - 4)))
+                y = int(np.clip(y, h + 4, max(h + 4, H - base - 2)))
+                box = (x - 2, y - h - 3, x + w + 2, y + base + 1)
+                cost = sum(_overlap(box, p) for p in placed)
+                if best_cost is None or cost < best_cost:
+                    best, best_cost = (x, y, box), cost
+                if cost == 0:
+                    break
+            if best_cost == 0:
+                break
+        assert best is not None
+        out.append((best[0], best[1]))
+        placed.append(best[2])
+    return out
 
 
 def draw_elements(
@@ -42,8 +98,11 @@ def draw_elements(
     """Return a copy of ``rgb`` (H, W, 3) uint8 with ``elements`` (world frame) drawn through ``camera``.
 
     Args:
-        stale: element id -> (k,) bool; stale points are drawn hollow.
+        stale: element id -> (k,) bool; stale points are drawn hollow, and the label of an element
+            whose points are all stale (hidden, e.g. under the arm) is drawn faded.
         alpha: opacity of surface fills.
+
+    Labels are placed so that they do not cover each other (:func:`place_labels`).
     """
     img = np.ascontiguousarray(rgb.copy())
     s = _scale(img)
@@ -65,7 +124,7 @@ def draw_elements(
             cv2.fillPoly(overlay, [polys[el.id]], tuple(int(v) for v in el.color))
     if polys:
         img = cv2.addWeighted(overlay, alpha, img, 1 - alpha, 0)
-    labels: list[tuple[str, tuple[int, int], tuple[int, int, int]]] = []
+    labels: list[tuple[str, tuple[int, int], tuple[int, int, int], bool]] = []
     for el, pts in projected:
         col = tuple(int(c) for c in el.color)
         st = stale.get(el.id) if stale else None
@@ -79,9 +138,11 @@ def draw_elements(
             if not hollow:
                 cv2.circle(img, tuple(p), r, (255, 255, 255), 1, cv2.LINE_AA)
         anchor = pts.mean(axis=0).astype(int)
-        labels.append((str(el.id), (int(anchor[0]) + r + 2, int(anchor[1]) - r - 2), col))
-    for text, org, col in labels:
-        _label(img, text, org, col, s)
+        hidden = st is not None and len(st) > 0 and bool(np.all(st))
+        labels.append((str(el.id), (int(anchor[0]), int(anchor[1])), col, hidden))
+    origins = place_labels([a for _, a, _, _ in labels], [_label_size(t, s) for t, _, _, _ in labels], img.shape, r)
+    for (text, _, col, hidden), org in zip(labels, origins):
+        _label(img, text, org, col, s, alpha=0.4 if hidden else 1.0)
     return img
 
 

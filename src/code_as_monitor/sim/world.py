@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from code_as_monitor.core.checks import check_positive, check_seed
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import Observation, RobotState, View
 from code_as_monitor.sim.cameras import CameraSpec, SimCamera, default_cameras, encode_seg_id, load_egl
@@ -45,8 +46,7 @@ class WorldConfig:
         if self.physics_hz <= 0 or self.control_hz <= 0 or self.physics_hz % self.control_hz:
             raise ConfigError(f"WorldConfig: physics_hz ({self.physics_hz}) must be a positive multiple of "
                               f"control_hz ({self.control_hz})")
-        if self.camera_hz <= 0:
-            raise ConfigError(f"WorldConfig.camera_hz must be > 0, got {self.camera_hz}")
+        check_positive("WorldConfig", "camera_hz", self.camera_hz)
         if self.renderer not in ("tiny", "egl"):
             raise ConfigError(f"WorldConfig.renderer must be 'tiny' or 'egl', got {self.renderer!r}")
         if self.robot_visual not in ROBOT_VISUALS:
@@ -74,7 +74,7 @@ class World:
         import pybullet as pb
 
         self.config = cfg = config or WorldConfig()
-        self.seed = int(seed)
+        self.seed = check_seed("World", seed)
         self.rng = np.random.default_rng(self.seed)
         self.client = c = pb.connect(pb.DIRECT)
         pb.resetSimulation(physicsClientId=c)

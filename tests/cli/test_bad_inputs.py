@@ -1,0 +1,187 @@
+"""Every command refuses bad input with one line and exit 2, and leaves nothing behind.
+
+Each case runs ``cam`` in-process from an empty working directory (so default output paths such as
+``runs/`` land in it) and checks: exit status 2, exactly one line on stderr naming the problem, no
+traceback, nothing on stdout, and the directory tree unchanged (no run directory, no results file,
+no report). ``UNWRITABLE`` stands for a directory nobody can create files in; ``FILE`` for an existing
+regular file; ``DIR`` for an existing directory; ``EMPTY``, ``GARBAGE``, ``NOKEYS``, ``FEWKEYS`` for
+results files that are empty, not JSON, without the episode keys, without the keys the report reads.
+A separate test mounts a real read-only file system (where it is allowed) for the output flags.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from code_as_monitor.cli.main import main
+
+PLAN = "stack the blocks: red at the bottom, then green, then blue"
+EP = '{"kind": "episode", "condition": "stack-p0", "method": "cam", "seed": 0, "episode": 0, "success": true}'
+
+CASES: list[tuple[str, list[str], str]] = [
+    # (id, argv, a substring the one line must hold)
+    ("run-seed-negative", ["run", "stack-in-order", "--seed", "-1"], "--seed"),
+    ("run-seed-text", ["run", "stack-in-order", "--seed", "abc"], "--seed"),
+    ("run-seed-float", ["run", "stack-in-order", "--seed", "1.5"], "--seed"),
+    ("run-seed-huge", ["run", "stack-in-order", "--seed", str(2**40)], "--seed"),
+    ("run-p-above-1", ["run", "stack-in-order", "--p", "2"], "--p"),
+    ("run-p-nan", ["run", "stack-in-order", "--p", "nan"], "finite"),
+    ("run-q-negative", ["run", "stack-in-order", "--q", "-1"], "--q"),
+    ("run-hz-zero", ["run", "stack-in-order", "--camera-hz", "0"], "--camera-hz"),
+    ("run-hz-inf", ["run", "stack-in-order", "--camera-hz", "inf"], "finite"),
+    ("run-size-bad", ["run", "stack-in-order", "--size", "12"], "--size"),
+    ("run-size-tiny", ["run", "stack-in-order", "--size", "8x8"], "width"),
+    ("run-replans-negative", ["run", "stack-in-order", "--max-replans", "-1"], "--max-replans"),
+    ("run-runs-is-file", ["run", "stack-in-order", "--runs", "FILE"], "not a directory"),
+    ("run-runs-unwritable", ["run", "stack-in-order", "--runs", "UNWRITABLE/runs"], "cannot write"),
+    ("run-cassette-dir", ["run", "stack-in-order", "--backend", "replay", "--cassette", "DIR"], "is a directory"),
+    ("run-cassette-missing", ["run", "stack-in-order", "--backend", "replay", "--cassette", "nope.jsonl"],
+     "no such file"),
+    ("run-task-unknown", ["run", "no-such-task"], "no-such-task"),
+    ("run-tracker-unknown", ["run", "stack-in-order", "--tracker", "foo"], "foo"),
+    ("run-unknown-flag", ["run", "stack-in-order", "--frobnicate"], "--frobnicate"),
+    ("demo-seed-negative", ["demo", "--seed", "-5"], "--seed"),
+    ("demo-p-above-1", ["demo", "--p", "1.5"], "--p"),
+    ("demo-runs-unwritable", ["demo", "--runs", "UNWRITABLE/runs"], "cannot write"),
+    ("sim-seed-negative", ["sim", "stack-in-order", "--seed", "-1"], "--seed"),
+    ("sim-set-text-for-number", ["sim", "stack-in-order", "--set", "p=abc"], "'abc'"),
+    ("sim-set-nan", ["sim", "stack-in-order", "--set", "p=NaN"], "finite"),
+    ("sim-set-inf", ["sim", "stack-in-order", "--set", "time_limit=Infinity"], "finite"),
+    ("sim-set-negative", ["sim", "stack-in-order", "--set", "time_limit=-1"], "time_limit"),
+    ("sim-set-unknown-field", ["sim", "stack-in-order", "--set", "colour=3"], "colour"),
+    ("sim-set-no-key", ["sim", "stack-in-order", "--set", "=3"], "KEY=VALUE"),
+    ("sim-set-bool-for-number", ["sim", "stack-in-order", "--set", "p=true"], "number"),
+    ("sim-video-exists", ["sim", "stack-in-order", "--video", "FILE"], "already exists"),
+    ("sim-video-unwritable", ["sim", "stack-in-order", "--video", "UNWRITABLE/v.mp4"], "cannot write"),
+    ("sim-video-not-mp4", ["sim", "stack-in-order", "--video", "v.avi"], ".mp4"),
+    ("sim-events-exists", ["sim", "stack-in-order", "--events", "FILE"], "already exists"),
+    ("sim-no-task", ["sim"], "task"),
+    ("sim-hz-negative", ["sim", "stack-in-order", "--camera-hz", "-1"], "--camera-hz"),
+    ("plan-max-subgoals-zero", ["plan", PLAN, "--max-subgoals", "0"], "--max-subgoals"),
+    ("plan-image-missing", ["plan", PLAN, "--image", "front=missing.png"], "cannot read an image"),
+    ("plan-timeout-negative", ["plan", PLAN, "--timeout", "-1"], "--timeout"),
+    ("plan-cassette-missing", ["plan", PLAN, "--backend", "replay", "--cassette", "nope.jsonl"], "no such file"),
+    ("plan-record-exists", ["plan", PLAN, "--record", "FILE"], "already exists"),
+    ("elements-outliers", ["elements", "--outliers", "1.5"], "--outliers"),
+    ("elements-noise-nan", ["elements", "--noise-mm", "nan"], "finite"),
+    ("elements-seed-negative", ["elements", "--seed", "-1"], "--seed"),
+    ("bench-episodes-zero", ["bench", "--seeds", "1", "--episodes", "0"], "--episodes"),
+    ("bench-seeds-zero", ["bench", "--seeds", "0"], "--seeds"),
+    ("bench-workers-negative", ["bench", "--workers", "-1"], "--workers"),
+    ("bench-method-unknown", ["bench", "--methods", "nope"], "nope"),
+    ("bench-condition-unknown", ["bench", "--conditions", "nope"], "nope"),
+    ("bench-methods-empty", ["bench", "--methods", ","], "--methods"),
+    ("bench-executor-unknown", ["bench", "--executor", "dask"], "dask"),
+    ("bench-ray-address-without-ray", ["bench", "--ray-address", "auto"], "--executor ray"),
+    ("bench-results-dir", ["bench", "--results", "DIR"], "not a regular file"),
+    ("bench-results-unwritable", ["bench", "--results", "UNWRITABLE/r.jsonl"], "cannot write"),
+    ("bench-results-garbage", ["bench", "--results", "GARBAGE"], "not valid JSON"),
+    ("bench-results-nokeys", ["bench", "--results", "NOKEYS"], "lacks"),
+    ("bench-runs-dir-is-file", ["bench", "--runs-dir", "FILE"], "not a directory"),
+    ("bench-backend-options-not-object", ["bench", "--backend-options", "[1]"], "JSON object"),
+    ("bench-backend-options-not-json", ["bench", "--backend-options", "{x"], "JSON object"),
+    ("bench-doremi-k-zero", ["bench", "--doremi-k", "0"], "--doremi-k"),
+    ("bench-tracker-unknown", ["bench", "--tracker", "nope"], "nope"),
+    ("bench-backend-unknown", ["bench", "--backend", "nope"], "nope"),
+    ("report-dir", ["report", "DIR"], "is a directory"),
+    ("report-missing", ["report", "none.jsonl"], "no such file"),
+    ("report-empty", ["report", "EMPTY"], "no episode records"),
+    ("report-garbage", ["report", "GARBAGE"], "not valid JSON"),
+    ("report-nokeys", ["report", "NOKEYS"], "lacks"),
+    ("report-fewkeys", ["report", "FEWKEYS"], "lacks"),
+    ("report-out-is-file", ["report", "FEWKEYS", "--out", "FILE"], "not a directory"),
+    ("report-out-unwritable", ["report", "FEWKEYS", "--out", "UNWRITABLE/rep"], "cannot write"),
+    ("unknown-command", ["frobnicate"], "frobnicate"),
+]
+
+
+def _unwritable(tmp_path: Path) -> Path:
+    """A directory in which nothing can be created, for root too."""
+    if os.geteuid() != 0:
+        d = tmp_path.parent / (tmp_path.name + "-ro")
+        d.mkdir(exist_ok=True)
+        d.chmod(0o555)
+        return d
+    return Path("/proc/self/fdinfo")  # procfs: no new entries, whoever asks
+
+
+def _snapshot(root: Path) -> dict[str, int]:
+    return {str(p.relative_to(root)): (p.stat().st_size if p.is_file() else -1) for p in root.rglob("*")}
+
+
+@pytest.fixture
+def workdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    (tmp_path / "existing.txt").write_text("keep me\n")
+    (tmp_path / "adir").mkdir()
+    (tmp_path / "empty.jsonl").write_text("")
+    (tmp_path / "garbage.jsonl").write_text("not json\n{}\n")
+    (tmp_path / "nokeys.jsonl").write_text('{"kind": "episode", "condition": "stack-p0"}\n')
+    (tmp_path / "fewkeys.jsonl").write_text(EP + "\n")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def _resolve(argv: list[str], root: Path) -> list[str]:
+    subs = {"FILE": "existing.txt", "DIR": "adir", "EMPTY": "empty.jsonl", "GARBAGE": "garbage.jsonl",
+            "NOKEYS": "nokeys.jsonl", "FEWKEYS": "fewkeys.jsonl"}
+    unwritable = str(_unwritable(root))
+    return [subs.get(a, a.replace("UNWRITABLE", unwritable)) for a in argv]
+
+
+def test_the_table_is_large_and_covers_every_command() -> None:
+    assert len(CASES) >= 40
+    assert {c[1][0] for c in CASES} >= {"run", "demo", "sim", "plan", "elements", "bench", "report"}
+
+
+@pytest.mark.parametrize(("argv", "needle"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_exit_2_nothing_left(workdir: Path, capsys: pytest.CaptureFixture[str],
+                                                   argv: list[str], needle: str) -> None:
+    before = _snapshot(workdir)
+    rc = main(_resolve(argv, workdir))
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert rc == 2, cap
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("cam"), lines
+    assert needle in lines[0], lines
+    assert "Traceback" not in cap.err and cap.out == ""
+    assert _snapshot(workdir) == before
+
+
+def _can_mount_read_only() -> bool:
+    if os.geteuid() != 0 or not shutil.which("unshare") or not sys.platform.startswith("linux"):
+        return False
+    probe = subprocess.run(["unshare", "-m", "--propagation", "private", "sh", "-c",
+                            "mount --bind -o ro / /mnt 2>/dev/null && umount /mnt"], capture_output=True)
+    return probe.returncode == 0
+
+
+@pytest.mark.skipif(not _can_mount_read_only(), reason="needs root and mount namespaces to mount a read-only fs")
+@pytest.mark.parametrize("argv", [
+    ["run", "stack-in-order", "--runs", "RO/runs"],
+    ["sim", "stack-in-order", "--video", "RO/v.mp4"],
+    ["bench", "--results", "RO/r.jsonl"],
+    ["report", "RO/r.jsonl"],
+], ids=["run-runs", "sim-video", "bench-results", "report-default-out"])
+def test_read_only_file_system(tmp_path: Path, argv: list[str]) -> None:
+    """The output flags on a real read-only mount (a private bind mount, invisible outside the test)."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    (ro / "r.jsonl").write_text(EP.replace("}", ', "sim_time_s": 1.0, "vlm": {"calls": 0, "total_tokens": 0}, '
+                                              '"alarms": [], "gt": []}') + "\n")
+    before = _snapshot(tmp_path)
+    cmd = " ".join(f"'{a}'" for a in [sys.executable, "-m", "code_as_monitor.cli.main",
+                                      *[a.replace("RO", str(ro)) for a in argv]])
+    proc = subprocess.run(["unshare", "-m", "--propagation", "private", "sh", "-c",
+                           f"mount --bind -o ro '{ro}' '{ro}' && exec {cmd}"],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2, proc.stderr
+    assert len(lines) == 1 and "Read-only file system" in lines[0], lines
+    assert _snapshot(tmp_path) == before
