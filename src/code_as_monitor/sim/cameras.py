@@ -21,6 +21,9 @@ _CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 
 RENDERERS = ("tiny", "egl")
 
+Images = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""One rendered frame of a view: rgb (H, W, 3) uint8, depth (H, W) float32 metres, seg (H, W) int32."""
+
 
 @dataclass
 class CameraSpec:
@@ -96,12 +99,16 @@ class SimCamera:
         rgb, depth, seg = self.images(self._view)
         return View(rgb=rgb, depth=depth, camera=self.camera, seg=seg, seg_labels=dict(seg_labels))
 
-    def defer(self, seg_labels: dict[int, tuple[str, str]], clock: Callable[[], int]) -> DeferredView:
+    def defer(self, seg_labels: dict[int, tuple[str, str]], clock: Callable[[], int],
+              fetch: Callable[[list[float]], Images] | None = None) -> DeferredView:
         """A View of the scene as it is now whose images are rendered when first read (see
-        :class:`DeferredView`); ``clock()`` is the world's tick counter at the time of reading."""
-        return DeferredView(self, self.camera, self._view, dict(seg_labels), clock)
+        :class:`DeferredView`); ``clock()`` is the world's tick counter at the time of reading;
+        ``fetch(view_matrix)`` gives the images (default :meth:`images`; a world passes its cache)."""
+        get = fetch or self.images
+        view = self._view
+        return DeferredView(self.camera, dict(seg_labels), lambda: get(view), clock)
 
-    def images(self, view_matrix: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def images(self, view_matrix: list[float]) -> Images:
         """One ``getCameraImage`` call from ``view_matrix`` (column-major OpenGL): rgb (H, W, 3) uint8,
         depth (H, W) float32 metres (0 = no reading), seg (H, W) int32 (see :meth:`render`)."""
         import pybullet as pb
@@ -133,29 +140,28 @@ class DeferredView(View):
     state) still renders. Pickling or copying renders it and gives a plain :class:`View`.
     """
 
-    def __init__(self, cam: SimCamera, camera: CameraModel, view_matrix: list[float],
-                 seg_labels: dict[int, tuple[str, str]], clock: Callable[[], int]) -> None:
+    def __init__(self, camera: CameraModel, seg_labels: dict[int, tuple[str, str]], fetch: Callable[[], Images],
+                 clock: Callable[[], int]) -> None:
         self.camera = camera
         self.seg_labels = seg_labels
-        self._cam = cam
-        self._view_matrix = view_matrix
+        self._fetch = fetch
         self._clock = clock
         self._tick = clock()
-        self._images: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._images: Images | None = None
 
     @property
     def rendered(self) -> bool:
         """True once the images exist."""
         return self._images is not None
 
-    def _get(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _get(self) -> Images:
         if self._images is None:
             now = self._clock()
             if now != self._tick:
                 raise SimError(
                     f"view {self.camera.name!r} of tick {self._tick} read at tick {now}: its images were never "
                     "rendered and the world has moved on; read them before stepping (or observe(eager=True))")
-            self._images = self._cam.images(self._view_matrix)
+            self._images = self._fetch()
         return self._images
 
     @property  # type: ignore[override]

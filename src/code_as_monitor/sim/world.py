@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,14 @@ import numpy as np
 from code_as_monitor.core.checks import check_positive, check_seed
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import Observation, RobotState, View
-from code_as_monitor.sim.cameras import CameraSpec, SimCamera, default_cameras, encode_seg_id, load_egl
+from code_as_monitor.sim.cameras import (
+    CameraSpec,
+    Images,
+    SimCamera,
+    default_cameras,
+    encode_seg_id,
+    load_egl,
+)
 from code_as_monitor.sim.events import EventLog
 from code_as_monitor.sim.robot import ROBOT_VISUALS, Panda, pose_matrix
 
@@ -93,6 +101,8 @@ class World:
         self._seg_labels: dict[int, tuple[str, str]] | None = None
         self._next_frame_tick = 0
         self._deferred: list[Any] = []  # the last deferred views (rendered before a save_state)
+        self._frame_key: tuple[int, bytes] | None = None  # the instant of the renders in _frames
+        self._frames: dict[tuple[str, tuple[float, ...]], Images] = {}
         self.renderer = cfg.renderer  # the plugin must load before any body so it sees every visual
         if cfg.renderer == "egl" and not load_egl(c):
             self.renderer = "tiny"
@@ -231,16 +241,52 @@ class World:
 
     def render(self, eager: bool = True) -> dict[str, View]:
         """Every camera's view of the current instant: rendered now (``eager``), or as
-        :class:`~code_as_monitor.sim.cameras.DeferredView` s rendered when their images are first read."""
+        :class:`~code_as_monitor.sim.cameras.DeferredView` s rendered when their images are first read.
+
+        A view of an instant already rendered (the same tick, every body and robot joint where it was)
+        reuses that render (a copy of its images): the monitor's last frame of a subgoal and the
+        planner's and painter's first frame of the next are one instant, rendered once.
+        """
         labels = self.seg_labels()
+        key = self._instant_key()
         if eager:
-            return {cam.spec.name: cam.render(labels) for cam in self.cameras}
-        views = {cam.spec.name: cam.defer(labels, self._clock) for cam in self.cameras}
+            views: dict[str, View] = {}
+            for cam in self.cameras:
+                rgb, depth, seg = self._fetch(cam, cam._view, key)
+                views[cam.spec.name] = View(rgb=rgb, depth=depth, camera=cam.camera, seg=seg, seg_labels=dict(labels))
+            return views
+        views = {cam.spec.name: cam.defer(labels, self._clock, partial(self._fetch, cam, key=key))
+                 for cam in self.cameras}
         self._deferred = list(views.values())
         return views
 
     def _clock(self) -> int:
         return self.ticks if self.client >= 0 else -1
+
+    def _instant_key(self) -> tuple[int, bytes]:
+        """The tick and every body's base pose and every joint position, as bytes: equal keys, equal images."""
+        import pybullet as pb
+
+        c = self.client
+        state: list[float] = []
+        for i in range(pb.getNumBodies(physicsClientId=c)):
+            b = pb.getBodyUniqueId(i, physicsClientId=c)
+            pos, orn = pb.getBasePositionAndOrientation(b, physicsClientId=c)
+            state += [*pos, *orn]
+            n = pb.getNumJoints(b, physicsClientId=c)
+            if n:
+                state += [s[0] for s in pb.getJointStates(b, range(n), physicsClientId=c)]
+        return self.ticks, np.asarray(state, dtype=np.float64).tobytes()
+
+    def _fetch(self, cam: SimCamera, view_matrix: list[float], key: tuple[int, bytes]) -> Images:
+        """Images of ``cam`` from ``view_matrix`` at the instant ``key``: rendered, or a copy of the render
+        of that instant (keeps the renders of the latest instant only)."""
+        if self._frame_key != key:
+            self._frame_key, self._frames = key, {}
+        hit = self._frames.get((cam.spec.name, tuple(view_matrix)))
+        if hit is None:
+            hit = self._frames[(cam.spec.name, tuple(view_matrix))] = cam.images(view_matrix)
+        return hit[0].copy(), hit[1].copy(), hit[2].copy()
 
     @property
     def frames_rendered(self) -> int:
