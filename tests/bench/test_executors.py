@@ -26,6 +26,12 @@ def _records(path) -> dict:
             for r in read_results(path) if r["kind"] == "episode"}
 
 
+def test_default_workers_are_the_usable_cores():
+    want = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert LocalExecutorConfig().n_workers() == want and RayExecutorConfig().n_workers() == want
+    assert LocalExecutorConfig(workers=3).n_workers() == 3
+
+
 def test_executor_registry():
     assert set(ExecutorConfig.choices()) >= {"local", "ray"}
     assert isinstance(ExecutorConfig.from_name("ray", address="auto"), RayExecutorConfig)
