@@ -248,15 +248,13 @@ class World:
         planner's and painter's first frame of the next are one instant, rendered once.
         """
         labels = self.seg_labels()
-        key = self._instant_key()
         if eager:
             views: dict[str, View] = {}
             for cam in self.cameras:
-                rgb, depth, seg = self._fetch(cam, cam._view, key)
+                rgb, depth, seg = self._fetch(cam, cam._view)
                 views[cam.spec.name] = View(rgb=rgb, depth=depth, camera=cam.camera, seg=seg, seg_labels=dict(labels))
             return views
-        views = {cam.spec.name: cam.defer(labels, self._clock, partial(self._fetch, cam, key=key))
-                 for cam in self.cameras}
+        views = {cam.spec.name: cam.defer(labels, self._clock, partial(self._fetch, cam)) for cam in self.cameras}
         self._deferred = list(views.values())
         return views
 
@@ -278,9 +276,10 @@ class World:
                 state += [s[0] for s in pb.getJointStates(b, range(n), physicsClientId=c)]
         return self.ticks, np.asarray(state, dtype=np.float64).tobytes()
 
-    def _fetch(self, cam: SimCamera, view_matrix: list[float], key: tuple[int, bytes]) -> Images:
-        """Images of ``cam`` from ``view_matrix`` at the instant ``key``: rendered, or a copy of the render
-        of that instant (keeps the renders of the latest instant only)."""
+    def _fetch(self, cam: SimCamera, view_matrix: list[float]) -> Images:
+        """Images of ``cam`` from ``view_matrix`` now: rendered, or a copy of the render of this instant
+        (keeps the renders of the latest instant only; a deferred view reads at its own tick)."""
+        key = self._instant_key()
         if self._frame_key != key:
             self._frame_key, self._frames = key, {}
         hit = self._frames.get((cam.spec.name, tuple(view_matrix)))
