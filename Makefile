@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-EXTRAS ?= dev,sim,ray
+EXTRAS ?= dev,sim,ray,ros
 
 .PHONY: install demo test test-slow lint bench clean
 

@@ -156,7 +156,7 @@ def test_book_flat_then_upright_in_the_gripper(book_scene):
     assert not _ask(BOOK, "shelved", o)
     book_scene.put("book", (0.47, 0.10, 0.22), axis=(0.0, 0.0, -1.0), yaw=np.pi / 2)  # spine to the camera
     o = book_scene.obs((0.47, 0.10, 0.22))
-    for key in ("grasped", "raised", "gripped", "upright", "conveyed", "poised", "aimed", "standing"):
+    for key in ("grasped", "lifted", "gripped", "upright", "conveyed", "poised", "aimed", "standing"):
         assert _ask(BOOK, key, o), key
     assert not _ask(BOOK, "freed", o) and not _ask(BOOK, "shelved", o)
     book_scene.put("book", (0.47, 0.10, 0.22), axis=(0.0, 0.0, -1.0), yaw=0.0)  # the cover to the camera

@@ -77,6 +77,26 @@ def test_rollout_does_not_confirm_a_safe_tower():
     assert not cf["confirmed"] and cf["success_at_end"] is True
 
 
+def test_no_new_disturbance_starts_in_a_rollout():
+    """With drops certain (p = 1), the continuation of a centred tower still succeeds: the rollout asks what the
+    state at the alarm leads to, not what a fresh drop would do; the episode's own drops are untouched."""
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("stack-in-order", seed=2, p=1.0, q=3.0) as env:
+        env.plan = _offset_plan(env, 0.0)
+        env.world.disturbances_paused = True  # build the first level without drops or noise
+        _run(env, env.plan[0])
+        _run(env, env.plan[1])
+        env.world.disturbances_paused = False
+        n_drops = len(env.world.events.of_kind("drop"))
+        cf = rollout(env, horizon_s=15.0)
+        assert not env.world.disturbances_paused and len(env.world.events.of_kind("drop")) == n_drops
+        _run(env, env.plan[2])  # the episode itself still drops
+        _run(env, env.plan[3])
+        assert len(env.world.events.of_kind("drop")) > n_drops
+    assert cf["plan_ended"] and not cf["confirmed"] and cf["success_at_end"] is True
+
+
 def _until(env, kind: str) -> None:
     """Play the plan until the ground-truth log has an event of ``kind``."""
     plan = list(env.plan)
@@ -92,7 +112,6 @@ def test_gripper_task_rollout_confirms_by_the_task_failing_when_the_plan_ends():
     from code_as_monitor.sim.env import make_env
 
     with make_env("slot-pen", seed=0, disturbance="a") as env:
-        assert env.task.proactive_confirmation == "task_failure"
         _until(env, "object_moved")
         t = env.world.t
         cf = rollout(env, horizon_s=15.0)

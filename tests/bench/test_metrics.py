@@ -8,8 +8,11 @@ import pytest
 
 from code_as_monitor.bench.metrics import (
     FAILURE_KINDS,
+    benign,
     cell_summary,
+    concerns,
     detection,
+    detection_v1,
     failures,
     match,
     mean_ci,
@@ -55,11 +58,48 @@ def test_single_seed_interval_is_over_episodes():
 
 
 def test_failures_merge_collapses_and_skip_block_fell():
-    gt = [{"t": 2.0, "kind": "drop", "obj": "g"}, {"t": 2.4, "kind": "block_fell", "obj": "g"},
+    gt = [{"t": 2.0, "kind": "drop", "obj": "g"}, {"t": 2.4, "kind": "block_fell", "obj": "g", "on": "table"},
           {"t": 6.0, "kind": "tower_collapsed", "obj": "b"}, {"t": 6.3, "kind": "tower_collapsed", "obj": "g"},
           {"t": 9.0, "kind": "tower_collapsed", "obj": "g"}]
     assert [(f["t"], f["kind"]) for f in failures(gt)] == [(2.0, "drop"), (6.0, "tower_collapsed"),
                                                            (9.0, "tower_collapsed")]
+
+
+def test_a_collapse_the_falling_block_caused_merges_with_its_drop():
+    gt = [{"t": 2.0, "kind": "drop", "obj": "b"}, {"t": 2.3, "kind": "tower_collapsed", "obj": "g"},
+          {"t": 2.9, "kind": "block_fell", "obj": "b", "on": "table"},
+          {"t": 9.0, "kind": "tower_collapsed", "obj": "g"}]
+    fails = failures(gt)
+    assert [(f["t"], f["kind"]) for f in fails] == [(2.0, "drop"), (9.0, "tower_collapsed")]
+    assert set(fails[0]["objects"]) == {"b", "g"}  # an alarm about the knocked block detects the drop
+
+
+def test_drops_that_do_not_change_the_outcome_are_not_failures():
+    landed = [{"t": 2.0, "kind": "drop", "obj": "b", "target": "g"},
+              {"t": 2.5, "kind": "block_fell", "obj": "b", "on": "g", "target": "g", "on_target": True}]
+    regrasped = [{"t": 4.0, "kind": "drop", "obj": "g"}, {"t": 4.2, "kind": "regrasped", "obj": "g"}]
+    off_target = [{"t": 2.0, "kind": "drop", "obj": "b", "target": "g"},
+                  {"t": 2.5, "kind": "block_fell", "obj": "b", "on": "g", "target": "g", "on_target": False}]
+    assert failures(landed) == [] and failures(regrasped) == []
+    assert [e["t"] for e in benign(landed + regrasped)] == [2.0, 4.0]
+    assert [f["kind"] for f in failures(off_target)] == ["drop"]
+
+
+def test_events_after_the_method_stopped_are_not_held_against_it():
+    gt = [{"t": 2.0, "kind": "drop", "obj": "g"}, {"t": 12.0, "kind": "drop", "obj": "b"}]
+    assert [f["t"] for f in failures(gt, t_stop=10.0)] == [2.0]
+    assert len(failures(gt)) == 2
+
+
+def test_an_alarm_about_another_object_does_not_detect_a_failure():
+    fails = failures([{"t": 2.0, "kind": "drop", "obj": "green_block"}])
+    other = [{"t": 2.3, "objects": ["robot", "blue_block"], "constraint_id": "attached_blue_block"}]
+    same = [{"t": 2.3, "objects": ["robot", "green_block", "red_block"], "constraint_id": "attached_green_block"}]
+    assert match(other, fails)[0] == [None]
+    assert match(same, fails)[0] == [pytest.approx(0.3)]
+    # records without ``objects``: the object named in the constraint id or the reason
+    assert concerns({"constraint_id": "attached_green_block", "reason": ""}, "green_block")
+    assert not concerns({"constraint_id": "attached_blue_block", "reason": "blue block dropped"}, "green_block")
 
 
 def test_gripper_task_disturbances_count_as_failures_and_are_kept_in_records():
@@ -72,8 +112,8 @@ def test_gripper_task_disturbances_count_as_failures_and_are_kept_in_records():
 
 
 def test_matching_window_and_latency():
-    fails = [{"t": 2.0, "kind": "drop"}, {"t": 20.0, "kind": "drop"}]
-    alarms = [{"t": 2.6}, {"t": 3.0}, {"t": 40.0}]
+    fails = [{"t": 2.0, "kind": "drop", "obj": "g"}, {"t": 20.0, "kind": "drop", "obj": "g"}]
+    alarms = [{"t": 2.6, "objects": ["g"]}, {"t": 3.0, "objects": ["g"]}, {"t": 40.0, "objects": ["g"]}]
     lat, used = match(alarms, fails)
     assert lat == [pytest.approx(0.6), None]
     assert used == [True, False, False]
@@ -82,7 +122,7 @@ def test_matching_window_and_latency():
 def test_detection_recall_false_alarms_and_proactive_precision():
     drop = {"t": 2.0, "kind": "drop", "obj": "g"}
     recs = [
-        _rec(0, True, alarms=[{"t": 2.5, "proactive": False}], gt=[drop]),  # detected, 0.5 s
+        _rec(0, True, alarms=[{"t": 2.5, "proactive": False, "objects": ["g"]}], gt=[drop]),  # detected, 0.5 s
         _rec(0, False, alarms=[], gt=[drop], episode=1),  # missed
         _rec(0, True, episode=2, alarms=[
             {"t": 5.0, "proactive": True, "cf": {"confirmed": True, "lead_s": 1.5}},  # confirmed prediction
@@ -96,6 +136,21 @@ def test_detection_recall_false_alarms_and_proactive_precision():
     assert d["unmatched_per_ep"] == pytest.approx(2 / 3)
     assert (d["proactive_alarms"], d["proactive_confirmed"]) == (2, 1)
     assert d["proactive_precision"] == pytest.approx(0.5) and d["lead_median"] == pytest.approx(1.5)
+
+
+def test_old_and_new_rules_differ_where_the_issue_says():
+    """v1 credited an alarm about another block and counted a drop that landed on its target; v2 does not."""
+    recs = [
+        _rec(0, True, 10.0, alarms=[{"t": 2.2, "proactive": False, "objects": ["robot", "blue_block"]}],
+             gt=[{"t": 2.0, "kind": "drop", "obj": "green_block", "target": "red_block"},
+                 {"t": 2.4, "kind": "block_fell", "obj": "green_block", "on": "table", "on_target": False}]),
+        _rec(0, True, 10.0, episode=1, alarms=[],
+             gt=[{"t": 5.0, "kind": "drop", "obj": "blue_block", "target": "green_block"},
+                 {"t": 5.3, "kind": "block_fell", "obj": "blue_block", "on": "green_block", "on_target": True}]),
+    ]
+    old, new = detection_v1(recs), detection(recs)
+    assert (old["failures"], old["detected"]) == (2, 1)
+    assert (new["failures"], new["detected"], new["benign_events"]) == (1, 0, 1)
 
 
 def test_cell_summary_false_alarms_only_for_undisturbed():

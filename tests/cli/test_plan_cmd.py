@@ -55,11 +55,14 @@ def test_plan_record_then_replay(tmp_path, capsys):
 
 
 class _Server:
-    """Minimal OpenAI-compatible server answering every request with ``answer``."""
+    """Minimal OpenAI-compatible server answering every request with ``answer`` (streamed when asked), or with
+    HTTP ``error`` (status, message) when set."""
 
     def __init__(self, answer: str) -> None:
         outer = self
         self.image_counts: list[int] = []
+        self.bodies: list[dict] = []
+        self.error: tuple[int, str] | None = None
 
         class Handler(BaseHTTPRequestHandler):
             def log_message(self, *args: object) -> None:
@@ -67,13 +70,34 @@ class _Server:
 
             def do_POST(self) -> None:
                 body = json.loads(self.rfile.read(int(self.headers.get("Content-Length", 0))))
+                outer.bodies.append(body)
                 parts = [p for m in body["messages"] if isinstance(m["content"], list) for p in m["content"]]
                 outer.image_counts.append(sum(p["type"] == "image_url" for p in parts))
+                usage = {"prompt_tokens": 321, "completion_tokens": 54, "total_tokens": 375}
+                if outer.error is not None:
+                    data = json.dumps({"error": {"message": outer.error[1]}}).encode()
+                    self.send_response(outer.error[0])
+                    self.send_header("Content-Type", "application/json")
+                    self.send_header("Content-Length", str(len(data)))
+                    self.end_headers()
+                    self.wfile.write(data)
+                    return
+                if body.get("stream"):
+                    base = {"id": "x", "object": "chat.completion.chunk", "created": 0, "model": "local-model"}
+                    choice = {"index": 0, "delta": {"content": answer}, "finish_reason": "stop"}
+                    events = [{**base, "choices": [choice]}, {**base, "choices": [], "usage": usage}]
+                    self.send_response(200)
+                    self.send_header("Content-Type", "text/event-stream")
+                    self.end_headers()
+                    for ev in events:
+                        self.wfile.write(f"data: {json.dumps(ev)}\n\n".encode())
+                    self.wfile.write(b"data: [DONE]\n\n")
+                    return
                 data = json.dumps({
                     "id": "x", "object": "chat.completion", "created": 0, "model": "local-model",
                     "choices": [{"index": 0, "finish_reason": "stop",
                                  "message": {"role": "assistant", "content": answer}}],
-                    "usage": {"prompt_tokens": 321, "completion_tokens": 54, "total_tokens": 375},
+                    "usage": usage,
                 }).encode()
                 self.send_response(200)
                 self.send_header("Content-Type", "application/json")
@@ -125,6 +149,38 @@ def test_plan_openai_sends_images(server, capsys, tmp_path):
     assert server.image_counts == [2]
 
 
+def test_plan_openai_server_options_reach_the_request(server, capsys):
+    rc = main(["plan", STACK, "--backend", "openai", "--base-url", server.url, "--api-key-env", "none",
+               "--max-tokens", "1500", "--timeout", "30", "--structured", "off"])
+    assert rc == 0 and "1. pick up the green block" in capsys.readouterr().out
+    body = server.bodies[0]
+    assert body["max_tokens"] == 1500 and "response_format" not in body and body["stream"] is True
+    rc = main(["plan", STACK, "--backend", "openai", "--base-url", server.url, "--api-key-env", "none"])
+    assert rc == 0 and server.bodies[1]["response_format"]["type"] == "json_schema"
+    capsys.readouterr()
+    assert main(["plan", STACK, "--timeout", "5"]) == 2  # a server option for the kb
+    assert "apply to the openai backend" in capsys.readouterr().err
+
+
+def test_plan_openai_model_without_images_is_one_line_with_the_fix(server, capsys, tmp_path):
+    import cv2
+    import numpy as np
+
+    path = tmp_path / "front.png"
+    cv2.imwrite(str(path), np.full((6, 8, 3), 200, np.uint8))
+    server.error = (500, "image input is not supported - hint: you may need to provide the mmproj")
+    rc = main(["plan", STACK, "--backend", "openai", "--base-url", server.url, "--api-key-env", "none",
+               "--image", str(path)])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "--no-images" in err
+    assert len(server.bodies) == 1  # not retried
+    server.error = None
+    rc = main(["plan", STACK, "--backend", "openai", "--base-url", server.url, "--api-key-env", "none",
+               "--image", str(path), "--no-images"])
+    assert rc == 0 and server.image_counts[-1] == 0
+    assert "(image front not sent)" in server.bodies[-1]["messages"][1]["content"]
+
+
 def test_plan_openai_missing_key_is_one_line_exit_2(capsys, monkeypatch):
     monkeypatch.delenv("CAM_PLAN_NO_KEY", raising=False)
     rc = main(["plan", STACK, "--backend", "openai", "--api-key-env", "CAM_PLAN_NO_KEY"])
@@ -146,7 +202,8 @@ def test_plan_openai_unreachable_server_is_one_line_exit_2(capsys):
 
 def test_plan_bad_inputs(capsys, tmp_path):
     assert main(["plan", "juggle three oranges"]) == 2
-    assert "no rule for instruction" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "did not understand 'juggle', 'oranges'" in err and len(err.strip().splitlines()) == 1
     assert main(["plan", STACK, "--image", f"front={tmp_path / 'missing.png'}"]) == 2
     assert "cannot read an image" in capsys.readouterr().err
     assert main(["plan", STACK, "--backend", "replay"]) == 2

@@ -18,7 +18,8 @@ def _results(path, video=None) -> None:
                     "kind": "episode", "condition": "stack-p0.3", "method": method, "seed": seed, "episode": ep,
                     "success": ok, "sim_time_s": 10.0 + ep, "wall_time_s": 1.0, "finished_at": 1060.0,
                     "vlm": {"calls": 4, "total_tokens": 900},
-                    "alarms": [] if method == "open-loop" else [{"t": 2.5, "proactive": False}],
+                    "alarms": [] if method == "open-loop" else [{"t": 2.5, "proactive": False,
+                                                                "objects": ["robot", "green_block"]}],
                     "gt": [{"t": 2.0, "kind": "drop", "obj": "green_block"}],
                     "video": video if (seed, ep) == (0, 0) else None, "error": None,
                 })

@@ -82,7 +82,7 @@ def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
     report = _run(GOOD, constraints, scene, sandbox)
     assert report.ok and report.fraction == 1.0
     assert report.covered == {b.id for b in report.branches}
-    assert report.n_inputs == 97 + TURNS_PER_ELEMENT  # the state, 96 perturbations, turns of the surface
+    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2  # state, 96 perturbations, surface turns, 2 meetings
     assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
 
 
@@ -136,7 +136,7 @@ def test_overrun_on_a_branch_stops_early(constraints, scene):
 
 def test_factory_and_rejection_before_running(constraints, scene):
     report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=32)
-    assert report.n_inputs == 33 + TURNS_PER_ELEMENT
+    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2
     with pytest.raises(ProgramError, match="'while'"):
         _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
 
@@ -145,7 +145,7 @@ def test_probes_are_consistent_and_deterministic(scene):
     H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
     Ht = np.linspace(0.0, 0.4, 5)
     probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
-    assert len(probes) == 41 + TURNS_PER_ELEMENT and probes[0].description.startswith("the current state")
+    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 and probes[0].description.startswith("the current state")
     assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
     for p in probes:
         T = len(p.history_t)
@@ -161,6 +161,12 @@ def test_probes_are_consistent_and_deterministic(scene):
     for p in turns:
         first, last = p.history[1][0], p.history[1][-1]
         assert not np.allclose(first, last) and np.allclose(first.mean(axis=0), last.mean(axis=0))
+    meets = [p for p in probes if "moved since the oldest frame" in p.description]
+    assert len(meets) == 2  # each element carried to the other (a block to the suction tip)
+    for p in meets:
+        a = int(p.description.split()[1])
+        np.testing.assert_allclose(p.history[a][0], scene[a], atol=1e-12)  # it began where it was
+        assert np.linalg.norm(p.elements[a].mean(axis=0)[:2] - p.elements[1 - a].mean(axis=0)[:2]) < 1e-9
 
 
 def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints):

@@ -36,7 +36,7 @@ class Scripted:
         self.texts = list(texts)
         self.calls: list[tuple[list[Message], str]] = []
 
-    def complete(self, messages: list[Message], *, purpose: str) -> VLMResponse:
+    def complete(self, messages: list[Message], *, purpose: str, schema: dict | None = None) -> VLMResponse:
         self.calls.append((messages, purpose))
         return VLMResponse(self.texts.pop(0), 10, 5, "scripted")
 
@@ -65,8 +65,10 @@ def test_generator_reasks_then_raises():
     assert gen.next_subgoal("stack", {}, OBJECTS).action.skill == "pick"
     assert len(be.calls) == 3
     last_msgs = be.calls[2][0]
-    assert [m.role for m in last_msgs] == ["system", "user", "assistant", "user", "assistant", "user"]
-    assert "at least one constraint" in last_msgs[3].text and "no JSON object" in last_msgs[5].text
+    # a re-ask carries the request, the last answer and its error (not the first answer: no growing conversation)
+    assert [m.role for m in last_msgs] == ["system", "user", "assistant", "user"]
+    assert last_msgs[2].text == "not json" and "no JSON object" in last_msgs[3].text
+    assert "at least one constraint" in be.calls[1][0][3].text
     gen = ConstraintGenerator(Scripted("x", "y"), max_retries=1)
     with pytest.raises(VLMOutputError, match="after 2 attempt"):
         gen.next_subgoal("stack", {}, OBJECTS)

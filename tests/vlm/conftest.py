@@ -28,6 +28,11 @@ def elements_for(subgoal: Subgoal, points: dict[tuple[str, str], np.ndarray]) ->
     return out
 
 
+def history_from(start: list[Element], now: list[Element]) -> list[np.ndarray]:
+    """``H`` of two frames per element: where it was at the subgoal's start, and where it is now."""
+    return [np.stack([a.points, b.points]) for a, b in zip(start, now)]
+
+
 def run_checks(source: str, elements: list[Element], history: list[np.ndarray] | None = None,
                t: float = 1.0) -> dict[str, tuple]:
     """Execute every ``check_*`` of ``source`` (trusted kb templates, tests only) on the given state."""
@@ -47,3 +52,8 @@ def run_program() -> Callable[..., dict[str, tuple]]:
 @pytest.fixture
 def make_elements() -> Callable[..., list[Element]]:
     return elements_for
+
+
+@pytest.fixture
+def history_of() -> Callable[..., list[np.ndarray]]:
+    return history_from

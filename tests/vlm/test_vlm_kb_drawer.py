@@ -54,11 +54,13 @@ def test_drawer_recovery_subgoals(after, feedback, skill):
 
 
 def test_other_instructions_are_not_drawer_tasks():
+    from code_as_monitor.core.errors import InstructionError
     from code_as_monitor.vlm.grammar import parse
     from code_as_monitor.vlm.kb.families import drawer
 
     assert drawer.understand(parse("put the pen into the pen holder"), ["pen", "pen_holder"]) is None
-    assert drawer.understand(parse("open the drawer"), ["table"]) is None  # nothing to ground it on
+    with pytest.raises(InstructionError, match="no drawer"):  # nothing to ground it on
+        drawer.understand(parse("open the drawer"), ["table"])
     assert drawer.understand(parse(DRAWER), [CAB, "table"]) == drawer.DrawerGoal(CAB, "handle")
 
 

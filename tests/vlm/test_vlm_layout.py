@@ -19,8 +19,9 @@ def _module_name(path: Path) -> str:
     return ".".join([PKG, *parts])
 
 
-def _imports(path: Path) -> set[str]:
-    """Every module of the vlm package that ``path`` imports, anywhere in its body."""
+def _imports(path: Path, modules: set[str]) -> set[str]:
+    """Every module of the vlm package that ``path`` imports, anywhere in its body (``from pkg import sub``
+    depends on the submodule ``pkg.sub`` when there is one, else on ``pkg``)."""
     me = _module_name(path)
     is_pkg = path.name == "__init__.py"
     out: set[str] = set()
@@ -33,8 +34,8 @@ def _imports(path: Path) -> set[str]:
                 mod = ".".join(base + ([node.module] if node.module else []))
             else:
                 mod = node.module or ""
-            out.add(mod)
-            out.update(f"{mod}.{a.name}" for a in node.names)
+            for a in node.names:
+                out.add(f"{mod}.{a.name}" if f"{mod}.{a.name}" in modules else mod)
     return {m for m in out if m.startswith(PKG)}
 
 
@@ -43,8 +44,8 @@ def _graph() -> dict[str, set[str]]:
     graph = {}
     for name, path in files.items():
         deps = set()
-        for m in _imports(path):
-            while m and m not in files:  # "from pkg import name" names a module or an attribute
+        for m in _imports(path, set(files)):
+            while m and m not in files:
                 m = m.rpartition(".")[0]
             if m and m != name:
                 deps.add(m)

@@ -1,17 +1,25 @@
-"""The ``openai`` backend through the real SDK against a scripted OpenAI-compatible server on 127.0.0.1."""
+"""The ``openai`` backend through the real SDK against a scripted OpenAI-compatible server on 127.0.0.1
+(``fake_openai.py``): streaming, structured outputs, errors named with their fix, bounded retries, repairs."""
 
 from __future__ import annotations
 
 import json
-import threading
 import time
 from collections.abc import Iterator
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 import pytest
+from fake_openai import FakeServer
 
-from code_as_monitor.core.errors import VLMConfigError, VLMError, VLMOutputError
+from code_as_monitor.core.errors import (
+    VLMConfigError,
+    VLMContextError,
+    VLMError,
+    VLMImageError,
+    VLMOutputError,
+    VLMRequestError,
+    VLMTimeoutError,
+)
 from code_as_monitor.planning import ConstraintGenerator, MonitorCoder, basic_check
 from code_as_monitor.vlm.backend import OpenAIBackendConfig, make_backend
 from code_as_monitor.vlm.kb import KBBackend
@@ -19,66 +27,6 @@ from code_as_monitor.vlm.messages import Message
 
 STACK = "stack the blocks: red at the bottom, then green, then blue"
 OBJECTS = ["red_block", "green_block", "blue_block", "table"]
-
-
-class FakeServer:
-    """A scripted /v1/chat/completions server; each request pops the next step of the script.
-
-    A step is a dict: ``status`` (default 200), ``content`` (answer text), ``delay`` (seconds before
-    answering), ``headers``, ``usage`` ({prompt_tokens, completion_tokens}) or ``body`` (raw JSON).
-    """
-
-    def __init__(self) -> None:
-        self.script: list[dict] = []
-        self.requests: list[dict] = []
-        self.headers: list[dict] = []
-        self.lock = threading.Lock()
-        server = self
-
-        class Handler(BaseHTTPRequestHandler):
-            def log_message(self, *args: object) -> None:
-                pass
-
-            def do_POST(self) -> None:
-                body = json.loads(self.rfile.read(int(self.headers.get("Content-Length", 0))) or b"{}")
-                with server.lock:
-                    server.requests.append(body)
-                    server.headers.append(dict(self.headers))
-                    step = server.script.pop(0) if server.script else {"content": "no more script"}
-                time.sleep(step.get("delay", 0.0))
-                status = step.get("status", 200)
-                if status == 200:
-                    usage = step.get("usage", {"prompt_tokens": 11, "completion_tokens": 7})
-                    payload = step.get("body") or {
-                        "id": "chatcmpl-test", "object": "chat.completion", "created": 0,
-                        "model": body.get("model", "m"),
-                        "choices": [{"index": 0, "finish_reason": "stop",
-                                     "message": {"role": "assistant", "content": step.get("content", "")}}],
-                        "usage": {**usage, "total_tokens": sum(usage.values())},
-                    }
-                else:
-                    payload = {"error": {"message": f"scripted {status}", "type": "test", "code": status}}
-                data = json.dumps(payload).encode()
-                try:
-                    self.send_response(status)
-                    self.send_header("Content-Type", "application/json")
-                    self.send_header("Content-Length", str(len(data)))
-                    for k, v in step.get("headers", {}).items():
-                        self.send_header(k, v)
-                    self.end_headers()
-                    self.wfile.write(data)
-                except OSError:  # the client gave up (timeout test)
-                    pass
-
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.httpd.daemon_threads = True
-        self.thread = threading.Thread(target=self.httpd.serve_forever, kwargs={"poll_interval": 0.02}, daemon=True)
-        self.thread.start()
-        self.base_url = f"http://127.0.0.1:{self.httpd.server_address[1]}/v1"
-
-    def close(self) -> None:
-        self.httpd.shutdown()
-        self.httpd.server_close()
 
 
 @pytest.fixture
@@ -137,22 +85,108 @@ def test_500_storm_ends_in_a_clear_error(server, backend):
     assert len(server.requests) == 3
 
 
-def test_timeout(server, backend):
-    server.script = [{"delay": 1.0, "content": "slow"}] * 2
+def test_timeout_closes_the_request_and_is_not_retried(server, backend):
+    server.script = [{"content": "x" * 800, "chunk_delay": 0.05}, {"content": "never asked"}]
     t0 = time.monotonic()
-    with pytest.raises(VLMError, match=r"timed out after 0\.3 s"):
-        backend(timeout_s=0.3, max_retries=1).complete([Message.user("hi")], purpose="test")
+    with pytest.raises(VLMTimeoutError, match=r"no answer within 0\.3 s.*--timeout"):
+        backend(timeout_s=0.3, max_retries=2).complete([Message.user("hi")], purpose="test")
     assert time.monotonic() - t0 < 1.5
+    for _ in range(100):  # the server notices the closed stream at its next writes
+        if server.disconnects:
+            break
+        time.sleep(0.02)
+    assert server.disconnects == 1 and len(server.requests) == 1
+
+
+def test_plain_requests_without_streaming(server, backend):
+    server.script = [{"content": "plain", "usage": {"prompt_tokens": 5, "completion_tokens": 2}}]
+    resp = backend(stream=False).complete([Message.user("hi")], purpose="test")
+    assert (resp.text, resp.prompt_tokens, resp.estimated) == ("plain", 5, False)
+    assert "stream" not in server.requests[0] or not server.requests[0]["stream"]
+
+
+def test_a_server_without_usage_gives_estimates(server, backend):
+    server.script = [{"content": "no usage here", "usage": None}]
+    resp = backend().complete([Message.user("hi")], purpose="test")
+    assert resp.text == "no usage here" and resp.estimated and resp.prompt_tokens > 0
 
 
 def test_client_errors_are_not_retried(server, backend):
     server.script = [{"status": 400}, {"content": "never"}]
-    with pytest.raises(VLMError, match="HTTP 400"):
+    with pytest.raises(VLMRequestError, match="HTTP 400"):
         backend().complete([Message.user("hi")], purpose="test")
     assert len(server.requests) == 1
     server.script = [{"status": 401}]
     with pytest.raises(VLMConfigError, match="rejected the API key from CAM_TEST_KEY"):
         backend().complete([Message.user("hi")], purpose="test")
+    server.script = [{"status": 404, "message": "model 'nope' not found"}]
+    with pytest.raises(VLMConfigError, match="check --model"):
+        backend().complete([Message.user("hi")], purpose="test")
+
+
+@pytest.mark.parametrize("status,message", [
+    (500, "image input is not supported - hint: if this is unexpected, you may need to provide the mmproj"),
+    (400, "Invalid content part type: image_url"),
+    (400, "this model does not support vision"),
+])
+def test_a_model_without_images_is_named_with_the_fix_and_not_retried(server, backend, status, message):
+    server.script = [{"status": status, "message": message}] * 3
+    img = np.zeros((4, 4, 3), np.uint8)
+    with pytest.raises(VLMImageError, match=r"does not accept images.*--no-images"):
+        backend().complete([Message.user("look", {"front": img})], purpose="test")
+    assert len(server.requests) == 1
+
+
+def test_no_images_sends_text_only(server, backend):
+    server.script = [{"content": "ok"}]
+    img = np.zeros((4, 4, 3), np.uint8)
+    backend(images=False).complete([Message.user("look", {"front": img})], purpose="test")
+    content = server.requests[0]["messages"][0]["content"]
+    assert isinstance(content, str) and "look" in content and "(image front not sent)" in content
+
+
+@pytest.mark.parametrize("status,message", [
+    (400, "the request exceeds the available context size, try increasing it"),
+    (400, "This model's maximum context length is 2048 tokens. However, you requested 3100 tokens"),
+    (500, "requested tokens (3000) exceed context window of 2048"),
+])
+def test_a_context_too_small_is_named_with_the_fix(server, backend, status, message):
+    server.script = [{"status": status, "message": message}] * 3
+    with pytest.raises(VLMContextError, match=r"context.*(--ctx-size|--n_ctx).*--max-tokens \(now 512\)"):
+        backend(max_tokens=512).complete([Message.user("hi")], purpose="test")
+    assert len(server.requests) == 1
+
+
+def test_a_cut_off_answer_is_an_error_naming_max_tokens(server, backend):
+    server.script = [{"content": '{"subgoal": "pick up the gre', "finish_reason": "length"}]
+    with pytest.raises(VLMContextError, match=r"cut off at max_tokens=64.*raise --max-tokens"):
+        backend(max_tokens=64).complete([Message.user("hi")], purpose="test")
+
+
+def test_structured_output_asks_the_schema_and_falls_back_once(server, backend):
+    schema = {"title": "GeneratorOutput", "type": "object", "properties": {"subgoal": {"type": "string"}}}
+    be = backend()
+    refusal = "1 validation error: {'loc': ('body', 'response_format', 'type'), 'msg': 'Input should be text'}"
+    server.script = [{"status": 500, "message": refusal},  # how llama-cpp-python refuses json_schema
+                     {"status": 422, "message": "unsupported response_format: json_object"},
+                     {"content": "first"}, {"content": "second"}]
+    assert be.complete([Message.user("hi")], purpose="test", schema=schema).text == "first"
+    assert be.complete([Message.user("hi")], purpose="test", schema=schema).text == "second"
+    fmts = [r.get("response_format") for r in server.requests]
+    assert fmts[0] == {"type": "json_schema", "json_schema": {"name": "GeneratorOutput", "schema": schema,
+                                                              "strict": False}}
+    assert fmts[1] == {"type": "json_object", "schema": schema}
+    assert fmts[2] is None and fmts[3] is None  # the refused formats are not asked again
+    server.script = [{"status": 400, "message": "response_format json_schema not supported"}]
+    with pytest.raises(VLMRequestError, match=r"structured output json_schema.*--structured auto or off"):
+        backend(structured="json_schema").complete([Message.user("hi")], purpose="test", schema=schema)
+
+
+def test_a_server_refusing_stream_options_is_asked_without(server, backend):
+    server.script = [{"status": 400, "message": "Unrecognized request argument supplied: stream_options"},
+                     {"content": "ok"}]
+    assert backend().complete([Message.user("hi")], purpose="test").text == "ok"
+    assert "stream_options" in server.requests[0] and "stream_options" not in server.requests[1]
 
 
 def test_missing_api_key_names_the_variable(monkeypatch):
@@ -177,8 +211,22 @@ def test_malformed_json_repaired_on_second_ask(server, backend):
     assert len(server.requests) == 2
     second = server.requests[1]["messages"]
     assert second[-2]["role"] == "assistant" and "invalid JSON" in second[-1]["content"]
+    assert server.requests[0]["response_format"]["json_schema"]["schema"]["title"] == "GeneratorOutput"
     ep = gen.usage.episode()
     assert (ep["calls"], ep["prompt_tokens"], ep["completion_tokens"]) == (2, 1011, 307)
+
+
+def test_repairs_send_the_last_answer_and_error_not_the_conversation(server, backend):
+    answers = ['{"subgoal": "a"', '{"subgoal": "b", "done": false', '{"subgoal": "c"']
+    server.script = [{"content": a} for a in answers]
+    gen = ConstraintGenerator(backend(), max_retries=2)
+    with pytest.raises(VLMOutputError):
+        gen.next_subgoal(STACK, {}, OBJECTS)
+    sizes = [len(json.dumps(r["messages"])) for r in server.requests]
+    roles = [[m["role"] for m in r["messages"]] for r in server.requests]
+    assert roles[1] == roles[2] == ["system", "user", "assistant", "user"]
+    assert server.requests[2]["messages"][2]["content"] == answers[1]  # the last answer, not the first
+    assert abs(sizes[2] - sizes[1]) < 100  # the prompt does not grow with each repair
 
 
 def test_answer_that_never_validates(server, backend):
@@ -206,3 +254,17 @@ def test_monitor_coder_reasks_after_a_bad_program(server, backend):
     src = coder.write_program(sg, els, {}, basic_check([c.id for c in sg.constraints]))
     assert "def check_held_green_block(E, H, t):" in src and "```" not in src
     assert "missing function check_held_green_block" in server.requests[1]["messages"][-1]["content"]
+    assert server.requests[0]["response_format"]["json_schema"]["schema"]["required"] == ["program"]
+
+
+def test_monitor_coder_reads_a_structured_program(server, backend):
+    sg = ConstraintGenerator(KBBackend()).next_subgoal(STACK, {}, OBJECTS)
+    from code_as_monitor.core import Element
+
+    els = [Element.point(0, "suction cup tip", [0.5, 0, 0.1], ("robot", "tip")),
+           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", ""))]
+    coder = MonitorCoder(backend())
+    good = kb_answer(coder.build_messages(sg, els, {}), "monitor_coder")
+    server.script = [{"content": json.dumps({"program": good})}]
+    src = coder.write_program(sg, els, {}, basic_check([c.id for c in sg.constraints]))
+    assert "def check_held_green_block(E, H, t):" in src and "```" not in src

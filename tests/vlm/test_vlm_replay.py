@@ -73,7 +73,7 @@ def test_repeated_requests_replay_in_order_and_auto_records_misses(tmp_path):
         def __init__(self):
             self.n = 0
 
-        def complete(self, messages, *, purpose):
+        def complete(self, messages, *, purpose, schema=None):
             from code_as_monitor.vlm.backend import VLMResponse
 
             self.n += 1

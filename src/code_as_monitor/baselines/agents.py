@@ -16,7 +16,9 @@
 Neither baseline halts the policy when the time limit is reached: running out of time is not a
 decision to stop (the rope task counts a halt within the limit as the robot's decision).
 
-Every "no" is recorded as an :class:`~code_as_monitor.agent.loop.Alarm` (proactive when its
+The two checking baselines run in the same :class:`~code_as_monitor.agent.monitor.Monitor` as
+Code-as-Monitor (the same planner loop, bounds and feedback); only the per-subgoal checker differs.
+Every "no" is recorded as an :class:`~code_as_monitor.agent.records.Alarm` (proactive when its
 constraint is), so the benchmark scores all methods' detections the same way.
 """
 
@@ -27,14 +29,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from code_as_monitor.agent.loop import (
-    DEFAULT_MAX_REPLANS,
-    DEFAULT_MAX_SUBGOALS,
-    Alarm,
-    EpisodeLog,
-    SubgoalRecord,
-    run_plan_loop,
-)
+from code_as_monitor.agent.drive import drive
+from code_as_monitor.agent.monitor import Monitor, MonitorContext, SubgoalEnd
+from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS, EpisodeLog, SubgoalRecord
 from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.core.policy import Policy
@@ -123,108 +120,113 @@ class OpenLoopAgent:
         return self.time_limit_s is not None and env.t >= self.time_limit_s
 
 
-class CheckingAgent:
-    """Inner-Monologue-style (``period_s=None``) or DoReMi-style (``period_s=k``) closed loop.
+class VQAChecker:
+    """The per-subgoal part of the Inner-Monologue-style (``period_s=None``) and DoReMi-style
+    (``period_s=k``) baselines, plugged into the same :class:`~code_as_monitor.agent.monitor.Monitor`
+    as Code-as-Monitor (see the module docstring for what each asks and when).
 
     Args:
-        planner: ``next_subgoal(instruction, images, objects, previous, feedback) -> Subgoal``.
         vqa: :class:`~code_as_monitor.baselines.vqa.VQA` (one image per question).
         period_s: seconds between checks during execution; None checks only when a subgoal ends.
         ask_all_at_end: at the end of a subgoal, ask every constraint (Inner Monologue) instead of
             only the ``upon`` ones (DoReMi, which has watched the ``during`` ones all along).
-        on_frame: called with every rendered observation and a banner (for sample videos).
+        on_frame: called with every observation it looks at and a banner (for sample videos).
+    """
+
+    def __init__(self, vqa: Any, period_s: float | None, ask_all_at_end: bool,
+                 on_frame: FrameFn | None = None) -> None:
+        self.vqa = vqa
+        self.period_s = period_s
+        self.ask_all_at_end = ask_all_at_end
+        self.on_frame = on_frame
+        self.frames = 0
+        self._next_check = float("inf")
+
+    def _seen(self, obs: Observation, banner: str = "") -> None:
+        self.frames += 1
+        if self.on_frame is not None:
+            self.on_frame(obs, banner)
+
+    def start_episode(self, obs: Observation) -> None:
+        self._seen(obs)  # the first subgoal is planned on it
+
+    def close(self) -> None:
+        return None
+
+    def begin(self, index: int, subgoal: Subgoal, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        self._subgoal = subgoal
+        self._during = [c for c in subgoal.constraints if c.phase is Phase.DURING]
+        self._upon = [c for c in subgoal.constraints if c.phase is Phase.UPON]
+        self._next_check = obs.t + self.period_s if self.period_s else float("inf")
+        self._ctx = ctx
+        return None
+
+    def frame_due(self, t: float, policy_done: bool) -> bool:
+        return self._ctx.out_of_time(t) or policy_done or t + 1e-9 >= self._next_check
+
+    def frame(self, obs: Observation, policy_done: bool, ctx: MonitorContext) -> SubgoalEnd | None:
+        if ctx.out_of_time(obs.t):  # no halt: running out of time is not a decision to stop
+            self._seen(obs)
+            return SubgoalEnd("timeout", "time limit reached during the subgoal")
+        sg = self._subgoal
+        if not policy_done:
+            self._next_check += self.period_s or 0.0
+            self._seen(obs)
+            bad = self._ask(self._during, obs, ctx)
+            if bad:
+                c, ans = bad[0]
+                ctx.alarm(sg, c.id, c.phase.value, ans.reason, obs.t)
+                return SubgoalEnd("violated", f"{c.id}: {ans.reason}", halt=True)
+            if self._upon and not self._ask(self._upon, obs, ctx):
+                ctx.emit("early_halt", t=obs.t, reason="all upon constraints answered yes")
+                return SubgoalEnd("success", "all upon constraints answered yes", halt=True)
+            return None
+        self._seen(obs, "subgoal end")
+        bad = self._ask(sg.constraints if self.ask_all_at_end else self._upon, obs, ctx)
+        if bad:
+            c, ans = bad[0]
+            ctx.alarm(sg, c.id, c.phase.value, ans.reason, obs.t)
+            return SubgoalEnd("reactive_failure", f"{c.id}: {ans.reason}")
+        return SubgoalEnd("success", "policy finished; the success detector said yes")
+
+    def _ask(self, constraints: list[Constraint], obs: Observation,
+             ctx: MonitorContext) -> list[tuple[Constraint, Any]]:
+        """Ask each constraint on ``obs``; returns the (constraint, answer) pairs answered "no"."""
+        noes = []
+        for c in constraints:
+            ans = self.vqa.ask(c, obs)
+            ctx.emit("vqa", t=obs.t, constraint_id=c.id, yes=ans.yes, reason=ans.reason)
+            if not ans.yes:
+                noes.append((c, ans))
+        return noes
+
+
+class CheckingAgent:
+    """Inner-Monologue-style (``period_s=None``) or DoReMi-style (``period_s=k``) closed loop: a
+    :class:`VQAChecker` in a :class:`~code_as_monitor.agent.monitor.Monitor`, driven by
+    :func:`~code_as_monitor.agent.drive.drive` like Code-as-Monitor.
+
+    Args:
+        planner: ``next_subgoal(instruction, images, objects, previous, feedback) -> Subgoal``.
+        vqa, period_s, ask_all_at_end, on_frame: see :class:`VQAChecker`.
     """
 
     def __init__(self, planner: Any, vqa: Any, config: BaselineConfig, period_s: float | None,
                  ask_all_at_end: bool, time_limit_s: float | None = None, on_event: EventFn | None = None,
                  on_frame: FrameFn | None = None) -> None:
         self.planner = planner
-        self.vqa = vqa
         self.cfg = config
-        self.period_s = period_s
-        self.ask_all_at_end = ask_all_at_end
-        self.time_limit_s = time_limit_s
-        self.emit = on_event or _noop
-        self.on_frame = on_frame
-        self.frames = 0
+        self.checker = VQAChecker(vqa, period_s, ask_all_at_end, on_frame=on_frame)
+        self.monitor = Monitor(planner, self.checker, max_replans=config.max_replans,
+                               max_subgoals=config.max_subgoals, time_limit_s=time_limit_s, on_event=on_event)
 
-    def _out_of_time(self, env: Any) -> bool:
-        return self.time_limit_s is not None and env.t >= self.time_limit_s
-
-    def _observe(self, env: Any, banner: str = "") -> Observation:
-        obs = env.observe()
-        self.frames += 1
-        if self.on_frame is not None:
-            self.on_frame(obs, banner)
-        return obs
+    @property
+    def frames(self) -> int:
+        """Observations the method looked at (rendered for it)."""
+        return self.checker.frames
 
     def run(self, instruction: str, env: Any, policy: Policy) -> EpisodeLog:
-        last = {"obs": self._observe(env)}  # renders only what it uses: reuse the subgoal's last frame
-
-        def run_subgoal(index: int, subgoal: Subgoal, obs: Observation, ep: EpisodeLog) -> SubgoalRecord:
-            record, last["obs"] = self._run_subgoal(subgoal, env, policy, ep)
-            return record
-
-        return run_plan_loop(
-            instruction, env, self.planner, observe=lambda: last["obs"], run_subgoal=run_subgoal,
-            max_subgoals=self.cfg.max_subgoals, max_replans=self.cfg.max_replans,
-            out_of_time=lambda: self._out_of_time(env), emit=self.emit,
-        )
-
-    def _ask(self, constraints: list[Constraint], obs: Observation, subgoal: Subgoal,
-             ep: EpisodeLog) -> list[tuple[Constraint, Any]]:
-        """Ask each constraint on ``obs``; returns the (constraint, answer) pairs answered "no"."""
-        noes = []
-        for c in constraints:
-            ans = self.vqa.ask(c, obs)
-            self.emit("vqa", t=obs.t, constraint_id=c.id, yes=ans.yes, reason=ans.reason)
-            if not ans.yes:
-                noes.append((c, ans))
-        return noes
-
-    def _alarm(self, ep: EpisodeLog, subgoal: Subgoal, c: Constraint, reason: str, t: float) -> None:
-        alarm = Alarm(t, c.id, c.phase.value, bool(c.proactive), reason, subgoal.text)
-        ep.alarms.append(alarm)
-        self.emit("alarm", **alarm.to_dict())
-
-    def _run_subgoal(self, subgoal: Subgoal, env: Any, policy: Policy,
-                     ep: EpisodeLog) -> tuple[SubgoalRecord, Observation]:
-        t0 = env.t
-        skill = subgoal.action.skill if subgoal.action else ""
-        during = [c for c in subgoal.constraints if c.phase is Phase.DURING]
-        upon = [c for c in subgoal.constraints if c.phase is Phase.UPON]
-
-        def rec(outcome: str, reason: str) -> SubgoalRecord:
-            return SubgoalRecord(subgoal.text, skill, outcome, reason, t0, env.t)
-
-        policy.start(subgoal.action)  # type: ignore[arg-type]
-        self.emit("policy_start", t=env.t, action=subgoal.action.to_dict() if subgoal.action else None)
-        next_check = env.t + self.period_s if self.period_s else float("inf")
-        while not policy.done:
-            policy.step()
-            if self._out_of_time(env):  # no halt: running out of time is not a decision to stop
-                return rec("timeout", "time limit reached during the subgoal"), self._observe(env)
-            if env.t + 1e-9 < next_check or policy.done:
-                continue
-            next_check += self.period_s or 0.0
-            obs = self._observe(env)
-            bad = self._ask(during, obs, subgoal, ep)
-            if bad:
-                c, ans = bad[0]
-                self._alarm(ep, subgoal, c, ans.reason, obs.t)
-                policy.halt()
-                return rec("violated", f"{c.id}: {ans.reason}"), obs
-            if upon and not self._ask(upon, obs, subgoal, ep):
-                policy.halt()
-                self.emit("early_halt", t=env.t, reason="all upon constraints answered yes")
-                return rec("success", "all upon constraints answered yes"), obs
-        obs = self._observe(env, "subgoal end")
-        bad = self._ask(subgoal.constraints if self.ask_all_at_end else upon, obs, subgoal, ep)
-        if bad:
-            c, ans = bad[0]
-            self._alarm(ep, subgoal, c, ans.reason, obs.t)
-            return rec("reactive_failure", f"{c.id}: {ans.reason}"), obs
-        return rec("success", "policy finished; the success detector said yes"), obs
+        return drive(self.monitor, instruction, env, policy)
 
 
 __all__ = [
@@ -234,4 +236,5 @@ __all__ = [
     "InnerMonologueConfig",
     "OpenLoopAgent",
     "OpenLoopConfig",
+    "VQAChecker",
 ]

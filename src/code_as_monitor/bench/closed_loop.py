@@ -1,12 +1,18 @@
 """One closed-loop (Code-as-Monitor) episode in the simulator, with every artefact written to a run dir.
 
-This is where the layers meet: the simulator provides the world and the open-loop policy; the agent
-(planner, painter, monitor) sees them only through ``World.observe``/``World.t`` and the policy
-protocol.
+This is where the layers meet: the simulator provides the world and the open-loop policy; the
+streaming :class:`~code_as_monitor.agent.monitor.Monitor` (planner, painter, monitor) sees them only
+through observations and the policy protocol, driven by :func:`~code_as_monitor.agent.drive.drive`
+exactly as a user's robot loop would drive it.
+
+A run that ends early still leaves ``summary.json`` saying how: ``outcome`` is ``success`` or
+``failure`` (the task's success check decided), ``error`` (the planner's backend failed, or an
+exception stopped the run: ``error`` names it) or ``interrupted`` (Ctrl-C / SIGTERM).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Callable
@@ -14,15 +20,15 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from code_as_monitor.agent.loop import DEFAULT_MAX_REPLANS
+from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
+from code_as_monitor.bench.artefacts import RunArtefacts
 from code_as_monitor.core.checks import check_count, check_positive, check_seed
-from code_as_monitor.core.run_io import EventLog, write_json
+from code_as_monitor.core.run_io import write_json
 
 log = logging.getLogger(__name__)
 
 EventCallback = Callable[[dict[str, Any]], None]
+OUTCOMES = ("success", "failure", "error", "interrupted")
 
 
 @dataclass
@@ -38,6 +44,7 @@ class ClosedLoopConfig:
         width, height, camera_hz: camera settings (the monitor runs at ``camera_hz``).
         video: write ``episode.mp4``.
         max_replans: failed subgoals allowed.
+        deadline_s: the sandbox's per-frame deadline (see ``MonitorConfig.deadline_s``).
     """
 
     task: str = "stack-in-order"
@@ -54,6 +61,7 @@ class ClosedLoopConfig:
     camera_hz: float = 10.0
     video: bool = True
     max_replans: int = DEFAULT_MAX_REPLANS
+    deadline_s: float = 0.020
 
     def __post_init__(self) -> None:
         check_seed("ClosedLoopConfig", self.seed)
@@ -61,20 +69,37 @@ class ClosedLoopConfig:
         check_count("ClosedLoopConfig", "height", self.height, 32)
         check_positive("ClosedLoopConfig", "camera_hz", self.camera_hz)
         check_count("ClosedLoopConfig", "max_replans", self.max_replans, 0)
+        check_positive("ClosedLoopConfig", "deadline_s", self.deadline_s)
+
+    def monitor_config(self, time_limit_s: float | None = None) -> Any:
+        """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""
+        from code_as_monitor.agent.config import MonitorConfig
+
+        return MonitorConfig(
+            backend=self.backend, backend_options=dict(self.backend_options), segmenter=self.segmenter,
+            segmenter_options=dict(self.segmenter_options), tracker=self.tracker,
+            tracker_options=dict(self.tracker_options), frame_hz=self.camera_hz, max_replans=self.max_replans,
+            time_limit_s=time_limit_s, deadline_s=self.deadline_s,
+        )
 
 
 def check_choices(cfg: ClosedLoopConfig) -> None:
     """Raise UnknownChoiceError/ConfigError naming a bad task, backend, segmenter or tracker (and its
     options) before anything is created or run."""
     import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
-    from code_as_monitor.perception import SegmenterConfig, TrackerConfig
     from code_as_monitor.sim.tasks.base import TaskConfig
-    from code_as_monitor.vlm import VLMBackendConfig
 
     TaskConfig.from_name(cfg.task, **cfg.task_params)
-    VLMBackendConfig.get_class(cfg.backend)
-    SegmenterConfig.from_name(cfg.segmenter, **cfg.segmenter_options)
-    TrackerConfig.from_name(cfg.tracker, **cfg.tracker_options)
+    cfg.monitor_config().check()
+
+
+def make_checked_backend(cfg: ClosedLoopConfig) -> Any:
+    """Check every choice and build the VLM backend (a missing API key or a bad server URL is found
+    here, before a run directory exists). Returns the backend for :func:`run_closed_loop`."""
+    from code_as_monitor.vlm import VLMBackendConfig, make_backend
+
+    check_choices(cfg)
+    return make_backend(VLMBackendConfig.from_name(cfg.backend, **cfg.backend_options))
 
 
 def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
@@ -88,112 +113,92 @@ def _settle_and_evaluate(env: Any, policy_done_reason: str) -> Any:
     return env.evaluate()
 
 
+def early_end(exc: BaseException) -> tuple[str, str]:
+    """(outcome, one-line reason) of a run stopped by ``exc``: ``interrupted`` or ``error``."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted", "interrupted (Ctrl-C or SIGTERM)"
+    return "error", f"{type(exc).__name__}: {exc}"
+
+
 def run_closed_loop(
     cfg: ClosedLoopConfig, run_dir: Path | None = None, on_event: EventCallback | None = None,
-    on_env: Callable[[Any], None] | None = None,
+    on_env: Callable[[Any], None] | None = None, backend: Any = None,
+    on_observation: Callable[[Any, bool], None] | None = None, frame_hooks: list[Callable[..., None]] | None = None,
 ) -> dict[str, Any]:
     """Run one Code-as-Monitor episode; returns the summary (also written to ``run_dir/summary.json``).
 
     ``run_dir`` (created by the caller, fresh) receives ``events.jsonl`` (agent events, flushed as
     written), ``ground_truth.jsonl`` (the simulator's disturbance/consequence log), ``episode.mp4``,
     ``prompts/`` and ``programs/``. ``on_env`` is called with the ``SimEnv`` once it exists (the
-    benchmark uses it to run counterfactual rollouts from inside ``on_event``).
-    """
-    import cv2
+    benchmark uses it to run counterfactual rollouts from inside ``on_event``). ``backend``: a VLM
+    backend already built by :func:`make_checked_backend`. ``on_observation(obs, policy_done)`` sees
+    every frame the monitor takes (a bag recorder); ``frame_hooks`` get every judged frame with its
+    elements and verdicts (a live viewer).
 
-    from code_as_monitor.agent.loop import Agent, AgentConfig
-    from code_as_monitor.monitor.runtime import MonitorRuntime
-    from code_as_monitor.painter import Painter
-    from code_as_monitor.perception import (
-        ElementHistory,
-        SegmenterConfig,
-        TrackerConfig,
-        make_segmenter,
-        make_tracker,
-    )
-    from code_as_monitor.planning.coder import MonitorCoder
-    from code_as_monitor.planning.generator import ConstraintGenerator
+    An exception or an interrupt still writes ``summary.json`` (outcome ``error`` / ``interrupted``)
+    and is then re-raised.
+    """
+    from code_as_monitor.agent.config import build_monitor
+    from code_as_monitor.agent.drive import drive
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
-    from code_as_monitor.viz.video import FrameComposer, VideoWriter
-    from code_as_monitor.vlm import VLMBackendConfig, make_backend
 
     wall0 = time.perf_counter()
-    backend = make_backend(VLMBackendConfig.from_name(cfg.backend, **cfg.backend_options))
-    generator = ConstraintGenerator(backend)
-    coder = MonitorCoder(backend, usage=generator.usage)
-    painter = Painter(make_segmenter(SegmenterConfig.from_name(cfg.segmenter, **cfg.segmenter_options)))
-    tracker = make_tracker(TrackerConfig.from_name(cfg.tracker, **cfg.tracker_options))
-    # Views are rendered when read: the oracle tracker reads poses, not pixels, so its frames cost no render.
+    out = RunArtefacts(run_dir, cfg.camera_hz if cfg.video else None, on_event)
+    out.frame_hooks.extend(frame_hooks or [])
+    # Views are rendered when read (and before the world moves on): the oracle tracker reads poses, not
+    # pixels, so its frames cost no render.
     world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True)
-
-    events = EventLog(run_dir / "events.jsonl") if run_dir is not None else None
-    video = VideoWriter(run_dir / "episode.mp4", fps=cfg.camera_hz) if (run_dir is not None and cfg.video) else None
-
-    def emit(kind: str, **fields: Any) -> None:
-        ev = events.write(kind, **fields) if events is not None else {"kind": kind, **fields}
-        if on_event is not None:
-            on_event(ev)
-
-    compose = FrameComposer(fps=cfg.camera_hz)  # keeps verdict banners up for 1.5 s of video
-
-    def on_frame(obs, elements, stale, verdicts, banner) -> None:
-        if video is not None:
-            video.write(compose(obs, elements, stale, verdicts, banner))
-
-    def on_prompt(index: int, subgoal: Any, images: dict[str, np.ndarray], source: str) -> None:
-        if run_dir is None:
-            return
-        (run_dir / "prompts").mkdir(exist_ok=True)
-        (run_dir / "programs").mkdir(exist_ok=True)
-        for view, img in images.items():
-            cv2.imwrite(str(run_dir / "prompts" / f"subgoal{index:02d}_{view}.png"), img[:, :, ::-1])
-        header = f"# subgoal {index}: {subgoal.text}\n"
-        (run_dir / "programs" / f"subgoal{index:02d}.py").write_text(header + source, encoding="utf-8")
-
-    runtime = MonitorRuntime()
+    monitor = None
+    summary: dict[str, Any] = {"method": "cam", "config": asdict(cfg), "task": cfg.task, "seed": cfg.seed}
     try:
         with make_env(cfg.task, seed=cfg.seed, world_config=world_cfg, **cfg.task_params) as env:
             if run_dir is not None:
                 env.world.events.open(run_dir / "ground_truth.jsonl")
             if on_env is not None:
                 on_env(env)
-            agent = Agent(
-                generator, coder, painter, tracker, runtime, ElementHistory,
-                AgentConfig(frame_hz=cfg.camera_hz, max_replans=cfg.max_replans,
-                            time_limit_s=env.task.config.time_limit),
-                on_event=emit, on_frame=on_frame, on_prompt=on_prompt,
-            )
-            episode = agent.run(env.instruction, env.world, env.policy)
+            monitor = build_monitor(cfg.monitor_config(env.task.config.time_limit), on_event=out.emit,
+                                    on_frame=out.on_frame, on_prompt=out.on_prompt, backend=backend)
+            episode = drive(monitor, env.instruction, env.world, env.policy, on_observation=on_observation)
             result = _settle_and_evaluate(env, episode.stop_reason)
             gt_events = list(env.world.events.events)
             env.world.events.close()
             t_end = env.world.t
-    finally:
-        runtime.close()
-        if video is not None:
-            for frame in compose.tail():
-                video.write(frame)
-            video.close()
-    summary: dict[str, Any] = {
-        "method": "cam",
-        "config": asdict(cfg),
-        "task": cfg.task,
-        "seed": cfg.seed,
+    except BaseException as exc:
+        outcome, reason = early_end(exc)
+        summary.update(outcome=outcome, success=False, reason=reason, error=reason,
+                       wall_time_s=round(time.perf_counter() - wall0, 2))
+        if monitor is not None:
+            summary.update(episode=monitor.episode.to_dict(), vlm=monitor.usage.to_dict())
+        try:
+            with contextlib.suppress(Exception):  # nothing may mask the exception that ended the run
+                out.emit("run_stopped", outcome=outcome, reason=reason)
+        finally:
+            out.close()
+            if monitor is not None:
+                monitor.close()
+            if run_dir is not None:
+                write_json(run_dir / "summary.json", summary)
+        raise
+    monitor.close()
+    usage = monitor.usage
+    outcome = "error" if episode.error is not None else ("success" if result.success else "failure")
+    summary.update({
+        "outcome": outcome,
         "success": bool(result.success),
         "reason": result.reason,
+        "error": f"planner failed: {episode.error}" if episode.error is not None else None,
         "sim_time_s": round(float(episode.t_end), 3),
         "sim_time_end_s": round(float(t_end), 3),
         "wall_time_s": round(time.perf_counter() - wall0, 2),
         "episode": episode.to_dict(),
-        "vlm": generator.usage.to_dict(),
+        "vlm": usage.to_dict(),
         "ground_truth_events": gt_events,
         "task_info": result.info,
-    }
-    emit("outcome", success=summary["success"], reason=result.reason, sim_time_s=summary["sim_time_s"],
-         vlm_calls=generator.usage.calls, vlm=generator.usage.episode())
-    if events is not None:
-        events.close()
+    })
+    out.emit("outcome", outcome=outcome, success=summary["success"], reason=result.reason,
+             sim_time_s=summary["sim_time_s"], vlm_calls=usage.calls, vlm=usage.episode())
+    out.close()
     if run_dir is not None:
         write_json(run_dir / "summary.json", summary)
     return summary

@@ -8,15 +8,13 @@ action in progress, then the rest of the task's fixed plan after it — and reco
 predicted failure happened. Then it restores the snapshot, so the monitored episode continues exactly
 from the alarm.
 
-What confirms a prediction depends on the task (``Task.proactive_confirmation``):
-
-- ``"events"`` (the CLIPort tasks): a predicted failure event (:data:`PREDICTED_KINDS`, a toppling
-  tower) appears in the ground-truth log; lead = its time - the alarm's time.
-- ``"task_failure"`` (the gripper tasks, whose proactive checks predict that the task cannot succeed:
-  the fingers will close on nothing, the pen will miss the opening): the open-loop plan runs to its
-  end within the horizon, the world settles for :data:`SETTLE_S`, and the task's success check fails;
-  lead = the time the plan ended - the alarm's time. A rollout whose plan does not end within the
-  horizon confirms nothing.
+One rule confirms a prediction for every task: the open-loop continuation ends with the task failed. The
+rest of the plan runs to its end within the horizon, the world settles for :data:`SETTLE_S`, and the
+task's success check fails. No new disturbance starts during the rollout (``world.disturbances_paused``):
+the question is what the state at the alarm leads to if nothing is done, not what a fresh drop would do.
+Lead = the first predicted failure event of the rollout (:data:`PREDICTED_KINDS`, a toppling tower) if one
+happened, else the time the failed plan ended, minus the alarm's time. A rollout whose plan does not end
+within the horizon confirms nothing.
 
 Nothing of the rollout leaks into the episode: physics, clock, event log (truncated, and its file
 mirror paused), disturbance random generators and the task's consequence detectors are restored.
@@ -31,9 +29,9 @@ from typing import Any
 
 import numpy as np
 
-PREDICTED_KINDS = ("tower_collapsed",)
-"""Ground-truth event kinds that confirm a proactive prediction (the kb's proactive constraints all
-predict a toppling tower; drops are random and never predictable)."""
+PREDICTED_KINDS = ("tower_collapsed", "object_knocked")
+"""Ground-truth event kinds that time a confirmed prediction (the failure happened then, before the plan's
+end); they do not confirm anything by themselves."""
 
 DEFAULT_HORIZON_S = 15.0
 SETTLE_S = 1.0
@@ -85,10 +83,10 @@ def _remaining_plan(env: Any) -> list[Any]:
 
 
 def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ...] = PREDICTED_KINDS) -> dict[str, Any]:
-    """Continue open loop from now for ``horizon_s`` seconds, then restore; returns what happened.
+    """Continue open loop from now for at most ``horizon_s`` seconds, then restore; returns what happened.
 
-    Returns ``{"confirmed": bool, "event": first predicted event or None, "lead_s": event t - now or
-    None, "horizon_s": ..., "success_at_end": task evaluation at the end of the rollout}``.
+    Returns ``{"confirmed": bool, "event": the failure that timed it or None, "lead_s": its time - now or None,
+    "horizon_s": ..., "success_at_end": the task's evaluation at the end, "plan_ended": bool}``.
     """
     world, policy = env.world, env.policy
     base = _policy_chain(policy)[-1]
@@ -99,26 +97,24 @@ def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ..
     gen_was_live = getattr(base, "_gen", None) is not None
     action = getattr(base, "action", None)
     fh, world.events._fh = world.events._fh, None  # keep the rollout out of the ground-truth file
-    found: dict[str, Any] | None = None
-    by_task = getattr(env.task, "proactive_confirmation", "events") == "task_failure"
+    paused, world.disturbances_paused = world.disturbances_paused, True
     plan_end: float | None = None
     try:
         end = t_alarm + horizon_s
         plan = _remaining_plan(env)
-        while world.t < end - 1e-9 and found is None:
+        while world.t < end - 1e-9:
             if policy.done:
                 if not plan:
                     plan_end = world.t if plan_end is None else plan_end
-                    if by_task and world.t >= plan_end + SETTLE_S - 1e-9:
+                    if world.t >= plan_end + SETTLE_S - 1e-9:
                         break
                     policy.step()
                 else:
                     policy.start(plan.pop(0))
             else:
                 policy.step()
-            if not by_task:
-                found = next((e for e in world.events.events[n_events:] if e["kind"] in kinds), None)
         success = bool(env.evaluate().success)
+        found = next((e for e in world.events.events[n_events:] if e["kind"] in kinds), None)
     finally:
         if not gen_was_live and getattr(base, "_gen", None) is not None:
             base._gen.close()
@@ -128,22 +124,19 @@ def rollout(env: Any, horizon_s: float = DEFAULT_HORIZON_S, kinds: tuple[str, ..
         if hasattr(base, "action"):
             base.action = action
         world.events._fh = fh
-    if by_task:
-        failed_at = plan_end if plan_end is not None and plan_end + SETTLE_S <= end + 1e-9 and not success else None
-        return {
-            "confirmed": failed_at is not None,
-            "event": None if failed_at is None else {"t": failed_at, "kind": "task_failed", "obj": ""},
-            "lead_s": None if failed_at is None else round(failed_at - t_alarm, 3),
-            "horizon_s": horizon_s,
-            "success_at_end": success,
-            "plan_ended": plan_end is not None,
-        }
+        world.disturbances_paused = paused
+    confirmed = plan_end is not None and plan_end + SETTLE_S <= end + 1e-9 and not success
+    event: dict[str, Any] | None = None
+    if confirmed:
+        event = ({"t": found["t"], "kind": found["kind"], "obj": found.get("obj", "")} if found is not None
+                 else {"t": plan_end, "kind": "task_failed", "obj": ""})
     return {
-        "confirmed": found is not None,
-        "event": {"t": found["t"], "kind": found["kind"], "obj": found["obj"]} if found else None,
-        "lead_s": round(found["t"] - t_alarm, 3) if found else None,
+        "confirmed": confirmed,
+        "event": event,
+        "lead_s": None if event is None else round(float(event["t"]) - t_alarm, 3),
         "horizon_s": horizon_s,
         "success_at_end": success,
+        "plan_ended": plan_end is not None,
     }
 
 

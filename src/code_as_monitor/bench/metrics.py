@@ -8,33 +8,44 @@ the cell says so (``ci_over``). n = 1: no interval (NaN). Execution time is the 
 the method stopped (before the settle time), over all episodes, successful or not; VLM computation
 time is excluded, as in the paper's CLIPort protocol.
 
-Detection against the simulator's ground-truth event log (:func:`detection`):
+Detection against the simulator's ground-truth event log (:func:`detection`). A detector is judged on
+the failures that matter: what would change the episode's outcome if nothing were done about it.
 
-- **Real failures** are ground-truth events of kind ``drop`` (the suction or the gripper let an object
-  go) and ``tower_collapsed`` (a stacked block fell off), and the gripper tasks' one-shot disturbances
-  (:mod:`code_as_monitor.sim.triggered`): ``object_moved`` (a pen or book moved under the gripper, a
-  holder moved during insertion), ``grasp_perturbed`` (the held object turned in the grasp),
-  ``object_knocked`` (a placed object knocked over), ``grasp_slipped`` (the grasp slipped off a handle)
-  and ``pour_undone`` (a pouring pot back to level). ``block_fell`` is the consequence of a drop and is
-  not counted again; collapse events of several blocks within ``MERGE_S`` (1 s) count once. Sweep
-  and rope have no discrete failure events (their failure is not stopping in time); their
-  detection cells stay empty.
-- **Matching**: a failure at time ``t_e`` is *detected* when an alarm is raised in
-  ``[t_e - EARLY_S, t_e + WINDOW_S]`` (``EARLY_S`` = 0.25 s for the frame clock, ``WINDOW_S`` = 5 s).
-  Each alarm matches at most one failure (earliest first).
-- **Recall** = detected failures / real failures, pooled over a cell's episodes.
+- **Failures** (:func:`failures`) are ground-truth events of the kinds in :data:`FAILURE_KINDS`: ``drop``
+  (the suction let an object go), ``tower_collapsed`` (a stacked block fell off) and the gripper tasks'
+  one-shot disturbances (:mod:`code_as_monitor.sim.triggered`: ``object_moved``, ``grasp_perturbed``,
+  ``object_knocked``, ``grasp_slipped``, ``pour_undone``), except:
+
+  * a drop that does not change the outcome: the object came to rest on the target it was being carried to,
+    within the task's placement tolerance (``block_fell.on_target``), or the suction took it again within the
+    same action (``regrasped``). These are logged, and alarms about them are neither credited nor false;
+  * consequences, merged with their cause: ``block_fell`` belongs to its drop, and a ``tower_collapsed``
+    between a drop and ``MERGE_S`` after the dropped object came to rest is the drop's doing (the falling
+    block knocked the tower); collapses within ``MERGE_S`` of each other count once;
+  * events after the method stopped (the record's ``sim_time_s``): nothing it could still have detected.
+
+  Sweep and rope have no discrete failure events (their failure is not stopping in time); their detection
+  cells stay empty.
+- **Matching**: a failure of object ``o`` at time ``t_e`` is *detected* by an alarm raised in
+  ``[t_e - EARLY_S, t_e + WINDOW_S]`` (``EARLY_S`` = 0.25 s for the frame clock, ``WINDOW_S`` = 5 s) that
+  concerns ``o``: ``o`` owns one of the alarmed constraint's elements (the alarm's ``objects``; records
+  written before alarms carried them fall back to ``o`` named in the constraint id or the reason). A merged
+  consequence's object counts as the failure's too (an alarm about the knocked tower detects the drop that
+  knocked it). Each alarm matches at most one failure (earliest first).
+- **Recall** = detected failures / failures, pooled over a cell's episodes.
 - **Latency** = first matching alarm time - failure time (seconds; may be slightly negative within
   ``EARLY_S``). Reported as the median and the distribution (plots).
-- **False alarms per undisturbed episode**: alarms that match no failure and are not confirmed by a
-  counterfactual, per episode of the undisturbed condition (``stack-p0``). The same count per
-  episode is also given for every cell (``unmatched_per_ep``).
-- **Proactive precision**: among proactive alarms that got a counterfactual rollout (see
-  ``bench.counterfactual``: save the world at the alarm, continue the open-loop plan without the
-  monitor for ``horizon_s``, restore), the fraction whose predicted failure happened in the rollout:
-  a ``tower_collapsed`` event for the CLIPort tasks; for the gripper tasks, the plan ending with the
-  task failed. **Lead time** = predicted event time (or the failed plan's end) in the rollout - alarm
-  time (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to
-  predict.
+- **False alarms per undisturbed episode**: alarms that detect no failure, concern no benign event, and are
+  not confirmed by a counterfactual, per episode of the undisturbed condition. The same count per episode is
+  given for every cell (``unmatched_per_ep``).
+- **Proactive precision**: among proactive alarms that got a counterfactual rollout (``bench.counterfactual``:
+  save the world at the alarm, continue the open-loop plan without the monitor and without new
+  disturbances, restore), the fraction after which the continuation ended with the task failed: one rule for
+  every task. **Lead time** = the rollout's first failure event (or the failed plan's end) - the alarm time
+  (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to predict.
+
+:func:`detection_v1` keeps the first round's definitions (every drop and collapse a failure, any alarm in
+the window matches, events after the stop counted) so reports can show old and new figures side by side.
 
 Open-loop raises no alarm; its detection cells are empty, not zero.
 """
@@ -97,28 +108,88 @@ def _getter(value: str):
     raise KeyError(value)
 
 
-def failures(gt: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Real failure events of one episode (see the module docstring), merged."""
+def _by_time(gt: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return sorted(gt, key=lambda e: e["t"])
+
+
+def _drop_resolution(gt: list[dict[str, Any]], drop: dict[str, Any]) -> dict[str, Any] | None:
+    """The event that settled ``drop``: its ``regrasped`` or ``block_fell`` (None if neither was logged)."""
+    for e in _by_time(gt):
+        if e["t"] >= drop["t"] and e.get("obj") == drop.get("obj") and e["kind"] in ("regrasped", "block_fell"):
+            return e
+    return None
+
+
+def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict[str, Any]]:
+    """The failures of one episode that matter (see the module docstring), each with ``objects``: its own
+    object plus those of the consequences merged into it.
+
+    Args:
+        gt: the episode's ground-truth events (``t``, ``kind``, ``obj`` and kind-specific keys).
+        t_stop: sim time at which the method stopped; later events are not counted (None: all).
+    """
     out: list[dict[str, Any]] = []
-    for e in sorted((e for e in gt if e["kind"] in FAILURE_KINDS), key=lambda e: e["t"]):
-        if (e["kind"] == "tower_collapsed" and out and out[-1]["kind"] == "tower_collapsed"
-                and e["t"] - out[-1]["t"] <= MERGE_S):
+    windows: list[tuple[float, float, dict[str, Any]]] = []  # (from, to, failure) a collapse merges into
+    for e in _by_time(gt):
+        if e["kind"] not in FAILURE_KINDS or (t_stop is not None and e["t"] > t_stop + 1e-9):
             continue
-        out.append(e)
+        f = {**e, "objects": [e.get("obj", "")]}
+        if e["kind"] == "drop":
+            res = _drop_resolution(gt, e)
+            if res is not None and (res["kind"] == "regrasped" or res.get("on_target")):
+                continue
+            end = (res["t"] if res is not None else e["t"]) + MERGE_S
+            windows.append((e["t"], end, f))
+        elif e["kind"] == "tower_collapsed":
+            cause = next((w for lo, hi, w in windows if lo <= e["t"] <= hi), None)
+            if cause is not None:
+                cause["objects"].append(e.get("obj", ""))
+                continue
+            windows.append((e["t"], e["t"] + MERGE_S, f))
+        out.append(f)
     return out
 
 
-def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]]) -> tuple[list[float | None], list[bool]]:
-    """(latency per failure or None, matched flag per alarm), greedy earliest-first."""
+def benign(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict[str, Any]]:
+    """Drops that did not change the outcome (landed on their target, or regrasped in the same action)."""
+    out = []
+    for e in _by_time(gt):
+        if e["kind"] == "drop" and (t_stop is None or e["t"] <= t_stop + 1e-9):
+            res = _drop_resolution(gt, e)
+            if res is not None and (res["kind"] == "regrasped" or res.get("on_target")):
+                out.append(e)
+    return out
+
+
+def concerns(alarm: dict[str, Any], obj: str) -> bool:
+    """Does ``alarm`` concern object ``obj``? By the alarmed constraint's element owners (``objects``), or, for
+    records without them, ``obj`` named in the constraint id or the reason."""
+    if not obj:
+        return False
+    objs = alarm.get("objects")
+    if objs is not None:
+        return obj in objs
+    text = f"{alarm.get('constraint_id', '')} {alarm.get('reason', '')}"
+    return obj in text or obj.replace("_", " ") in text
+
+
+def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]],
+          same_object: bool = True) -> tuple[list[float | None], list[bool]]:
+    """(latency per failure or None, matched flag per alarm), greedy earliest-first; with ``same_object`` an
+    alarm matches only a failure it concerns (any of the failure's ``objects``)."""
     used = [False] * len(alarms)
     lat: list[float | None] = []
     order = sorted(range(len(alarms)), key=lambda i: alarms[i]["t"])
     for f in fails:
         hit = None
+        objs = f.get("objects") or [f.get("obj", "")]
         for i in order:
-            if not used[i] and f["t"] - EARLY_S <= alarms[i]["t"] <= f["t"] + WINDOW_S:
-                hit = i
-                break
+            if used[i] or not f["t"] - EARLY_S <= alarms[i]["t"] <= f["t"] + WINDOW_S:
+                continue
+            if same_object and not any(concerns(alarms[i], o) for o in objs):
+                continue
+            hit = i
+            break
         if hit is None:
             lat.append(None)
         else:
@@ -127,18 +198,38 @@ def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]]) -> tuple[li
     return lat, used
 
 
-def detection(records: list[dict[str, Any]]) -> dict[str, Any]:
-    """Detection metrics pooled over ``records`` (one cell); see the module docstring."""
+def _failures_v1(gt: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out: list[dict[str, Any]] = []
+    for e in _by_time([e for e in gt if e["kind"] in FAILURE_KINDS]):
+        if (e["kind"] == "tower_collapsed" and out and out[-1]["kind"] == "tower_collapsed"
+                and e["t"] - out[-1]["t"] <= MERGE_S):
+            continue
+        out.append(e)
+    return out
+
+
+def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]:
+    """Detection metrics pooled over ``records`` (one cell); see the module docstring. ``rule="v1"`` applies
+    the first round's definitions (for side-by-side comparison only)."""
+    if rule not in ("v1", "v2"):
+        raise ValueError(f"unknown detection rule {rule!r}; expected 'v1' or 'v2'")
     n_fail = n_det = 0
     latencies: list[float] = []
     unmatched = 0
     pro_n = pro_ok = 0
     leads: list[float] = []
-    n_alarms = 0
+    n_alarms = n_benign = 0
     for r in records:
         alarms = r.get("alarms") or []
+        gt = r.get("gt") or []
         n_alarms += len(alarms)
-        lat, used = match(alarms, failures(r.get("gt") or []))
+        if rule == "v1":
+            fails, harmless = _failures_v1(gt), []
+        else:
+            t_stop = r.get("sim_time_s")
+            fails, harmless = failures(gt, t_stop), benign(gt, t_stop)
+        n_benign += len(harmless)
+        lat, used = match(alarms, fails, same_object=rule == "v2")
         n_fail += len(lat)
         n_det += sum(x is not None for x in lat)
         latencies += [x for x in lat if x is not None]
@@ -150,13 +241,17 @@ def detection(records: list[dict[str, Any]]) -> dict[str, Any]:
                     pro_ok += 1
                     if cf.get("lead_s") is not None:
                         leads.append(float(cf["lead_s"]))
-            if not u and not (cf and cf.get("confirmed")):
+            about_benign = any(b["t"] - EARLY_S <= a["t"] <= b["t"] + WINDOW_S and concerns(a, b.get("obj", ""))
+                               for b in harmless)
+            if not u and not (cf and cf.get("confirmed")) and not about_benign:
                 unmatched += 1
     n = len(records)
     return {
+        "rule": rule,
         "episodes": n,
         "alarms": n_alarms,
         "failures": n_fail,
+        "benign_events": n_benign,
         "detected": n_det,
         "recall": n_det / n_fail if n_fail else float("nan"),
         "latencies": latencies,
@@ -168,6 +263,11 @@ def detection(records: list[dict[str, Any]]) -> dict[str, Any]:
         "lead_median": float(np.median(leads)) if leads else float("nan"),
         "leads": leads,
     }
+
+
+def detection_v1(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """:func:`detection` under the first round's definitions (side-by-side comparison only)."""
+    return detection(records, rule="v1")
 
 
 def cost(records: list[dict[str, Any]]) -> dict[str, float]:
@@ -195,5 +295,5 @@ def cell_summary(records: list[dict[str, Any]], undisturbed: bool = False) -> di
     }
 
 
-__all__ = ["EARLY_S", "FAILURE_KINDS", "MERGE_S", "WINDOW_S", "cell_summary", "cost", "detection", "failures",
-           "match", "mean_ci", "seed_level", "t_quantile"]
+__all__ = ["EARLY_S", "FAILURE_KINDS", "MERGE_S", "WINDOW_S", "benign", "cell_summary", "concerns", "cost",
+           "detection", "detection_v1", "failures", "match", "mean_ci", "seed_level", "t_quantile"]

@@ -5,7 +5,8 @@ CLIPort"): stack-in-order with drop probability p in {0, 0.15, 0.3} (no placemen
 placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
 (OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen, stow-book, pour-tea, plus open-drawer
-(articulated, the paper's RLBench kind of object).
+(articulated, the paper's RLBench kind of object). ``instructions``: conditions whose goal an instruction sets
+(a reversed tower, a two-block tower, 10 blocks swept), to run instructions end to end.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -67,10 +68,17 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("drawer-none", "open-drawer", {}, "Open drawer, None", undisturbed=True, suite="table2"),
     Condition("drawer-slip", "open-drawer", {"disturbance": "slip"}, "Open drawer, grasp slips off the handle",
               suite="table2"),
+    # Goals set by an instruction (the task's goal parameters and success check follow it; see TaskConfig).
+    Condition("stack-reversed", "stack-in-order", {"instruction": "stack red on top of green on top of blue"},
+              "Stack in order, blue at the bottom (instruction)", undisturbed=True, suite="instructions"),
+    Condition("stack-two", "stack-in-order", {"instruction": "put the blue block on the red block", "p": 0.15},
+              "Stack two blocks, p=0.15 (instruction)", suite="instructions"),
+    Condition("sweep-ten", "sweep-half", {"instruction": "push 10 blocks into the zone"},
+              "Sweep 10 of 40 blocks, 9-11 accepted (instruction)", suite="instructions"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {
-    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2")
+    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "instructions")
 }
 SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
@@ -79,6 +87,8 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     # (baselines/vqa_standin_gripper.py), the drawer's (baselines/vqa_standin_drawer.py) and the teapot's
     # (baselines/vqa_standin_tea.py), each answering from one front image with a single image's mistakes.
     "table2": {"seeds": 1, "episodes": 10, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
+    # Instructions other than the paper's: the goal parameters they map to, end to end.
+    "instructions": {"seeds": 1, "episodes": 4, "methods": ("open-loop", "cam")},
 }
 
 METHODS: tuple[str, ...] = ("open-loop", "inner-monologue", "doremi", "cam")

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.cli import validate as v
+from code_as_monitor.cli.run_cmd import add_server_options, server_options
 from code_as_monitor.core.errors import ConfigError
 
 RESULTS_DIR = Path("runs/bench")
@@ -31,9 +32,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("bench", help="run the CLIPort benchmark (methods x conditions), resumable",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="1 seed x 4 episodes per condition")
-    p.add_argument("--suite", choices=("cliport", "table2"), default="cliport",
+    p.add_argument("--suite", choices=("cliport", "table2", "instructions"), default="cliport",
                    help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
-                        "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam)")
+                        "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam); instructions: goals set by "
+                        "instructions other than the paper's (open-loop and cam)")
     p.add_argument("--seeds", type=v.count(1), default=None, help="seeds per cell (default 5, quick 1)")
     p.add_argument("--episodes", type=v.count(1), default=None, help="episodes per seed (default 12, quick 4)")
     p.add_argument("--methods", type=v.csv, default=None, help="comma list (default: all four)")
@@ -51,6 +53,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--ray-address", default=None, help="existing Ray cluster (default: a local instance)")
     p.add_argument("--backend", default="kb", help="VLM backend: kb (offline stand-in) or openai")
     p.add_argument("--backend-options", type=v.json_object, default={}, help="JSON object of backend options")
+    add_server_options(p)
     p.add_argument("--doremi-k", type=v.positive, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
     p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle) or lk (default sim)")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
@@ -83,7 +86,13 @@ def run(args: argparse.Namespace) -> int:
     episodes = args.episodes if args.episodes is not None else (QUICK[1] if args.quick else suite["episodes"])
     results = args.results or v.check_results_file(
         RESULTS_DIR / f"{args.suite}{'-quick' if args.quick else ''}.jsonl", "--results")
-    options = {"backend": args.backend, "backend_options": args.backend_options, "doremi_k_s": args.doremi_k,
+    backend_options = dict(args.backend_options)
+    if server_options(args):
+        if args.backend != "openai":
+            raise ConfigError(f"--timeout/--max-retries/--max-tokens/--no-images/--structured apply to the openai "
+                              f"backend, not {args.backend!r}")
+        backend_options.update(server_options(args))
+    options = {"backend": args.backend, "backend_options": backend_options, "doremi_k_s": args.doremi_k,
                "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual}
     kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
     if args.methods:

@@ -27,5 +27,5 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args, DEMO_TASK, default_seed=DEMO_SEED, default_params=DEMO_PARAMS)
-    execute(args, cfg)
-    return 0  # the demo ran: a failed episode is a result, not an error of the command
+    code = execute(args, cfg)
+    return 0 if code in (0, 1) else code  # a failed episode is a result; an error or interrupt is not

@@ -56,6 +56,8 @@ class LiveLog:
             c.print(f"{ts}[bold]episode ended[/]: {ev['stop_reason']} ({ev['replans']} re-plans)")
         elif k == "outcome":
             self.outcome(ev)
+        elif k == "run_stopped":
+            c.print(f"[bold red]{ev['outcome'].upper()}[/]  {ev['reason']}")
 
     def outcome(self, ev: dict[str, Any]) -> None:
         vlm = ev.get("vlm") or {}

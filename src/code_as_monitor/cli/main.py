@@ -22,6 +22,8 @@ from code_as_monitor.core.errors import CamError
 COMMAND_MODULES: tuple[str, ...] = (
     "demo_cmd",
     "run_cmd",
+    "record_cmd",
+    "monitor_cmd",
     "elements_cmd",
     "sim_cmd",
     "plan_cmd",

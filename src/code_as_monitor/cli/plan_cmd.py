@@ -13,6 +13,7 @@ import json
 from typing import Any
 
 from code_as_monitor.cli import validate as v
+from code_as_monitor.cli.run_cmd import add_server_options, server_options
 
 DESCRIPTION = "Plan an instruction: subgoals with their during/upon constraints (and optionally monitor code)."
 
@@ -28,8 +29,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--model", default="gpt-4o", help="model name (openai)")
     p.add_argument("--api-key-env", default="OPENAI_API_KEY",
                    help="environment variable with the API key; 'none' for a local server without keys")
-    p.add_argument("--timeout", type=v.positive, default=60.0, help="per-request timeout, seconds (openai)")
-    p.add_argument("--max-retries", type=v.count(0), default=3, help="retries on 429/5xx/timeouts (openai)")
+    add_server_options(p)
     p.add_argument("--objects", default=None,
                    help="comma-separated scene objects (default: inferred from the instruction)")
     p.add_argument("--image", action="append", default=[], metavar="[VIEW=]PATH",
@@ -74,6 +74,9 @@ def _backend(args: argparse.Namespace) -> tuple[Any, str]:
     )
     from code_as_monitor.vlm.kb import KB_DESCRIPTION
 
+    if args.backend != "openai" and server_options(args):
+        raise ConfigError(f"--timeout/--max-retries/--max-tokens/--no-images/--structured apply to the openai "
+                          f"backend, not {args.backend!r}")
     inner: VLMBackendConfig
     if args.backend == "replay":
         if not args.cassette:
@@ -82,7 +85,7 @@ def _backend(args: argparse.Namespace) -> tuple[Any, str]:
         return make_backend(cfg), f"replay of {args.cassette}"
     if args.backend == "openai":
         inner = OpenAIBackendConfig(model=args.model, base_url=args.base_url, api_key_env=args.api_key_env,
-                                    timeout_s=args.timeout, max_retries=args.max_retries)
+                                    **server_options(args))
         label = f"openai: {args.model} at {args.base_url or 'api.openai.com'}"
     else:
         inner = KBBackendConfig()

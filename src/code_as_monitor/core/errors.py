@@ -57,6 +57,23 @@ class VLMOutputError(VLMError, ValueError):
     """The model's answer could not be parsed or validated after the allowed re-asks."""
 
 
+class VLMRequestError(VLMError):
+    """The server refused a request for a reason a retry cannot change (HTTP 4xx); the message names the fix."""
+
+
+class VLMImageError(VLMRequestError):
+    """The model does not take images (use ``--no-images`` or serve a vision model)."""
+
+
+class VLMContextError(VLMRequestError):
+    """The prompt and the answer do not fit: the server's context is too small, or the answer was cut off at
+    ``max_tokens``; the message says which number to raise."""
+
+
+class VLMTimeoutError(VLMError):
+    """The server gave no complete answer within the request timeout (the request was closed)."""
+
+
 class InstructionError(VLMError, ValueError):
     """An instruction the kb (or the task goal it maps to) cannot understand or honour; the message names the
     words it did not understand, or what it cannot do, and the task families it knows."""
@@ -75,6 +92,15 @@ class ProgramError(CamError, ValueError):
 
 class SandboxError(CamError):
     """The sandbox worker could not be started or talked to."""
+
+
+class ObservationError(CamError, ValueError):
+    """An observation handed to the monitor is unusable (a view missing, time going backwards)."""
+
+
+class RecordingError(CamError, ValueError):
+    """A recording (a ROS 2 bag) cannot be read or written: missing, truncated or corrupt, a topic
+    missing, an unknown encoding, sizes that do not match."""
 
 
 class SimError(CamError):

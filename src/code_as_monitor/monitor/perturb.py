@@ -2,9 +2,10 @@
 
 Each perturbation is a plausible-but-different world: elements translated by a few centimetres or up
 to ~0.3 m, raised or lowered, lines and surfaces rotated, elements moved apart or together, points
-piled on one another (degenerate lines and surfaces), elements swapped, and histories that are
+piled on one another (degenerate lines and surfaces), elements swapped, histories that are
 static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
-longer. Every array is world frame, metres; times are seconds.
+longer, and meetings (one element moved since the oldest frame to where another is now: a block carried
+up to the suction tip). Every array is world frame, metres; times are seconds.
 """
 
 from __future__ import annotations
@@ -89,6 +90,9 @@ def _with_history(state: State, T: int, t: float, start_offset: np.ndarray | Non
 TURNS_PER_ELEMENT = 3
 """Turning-history probes per line or surface element, added after the ``n`` perturbations: a check that
 compares an element's direction with its oldest one (a book turned under the gripper) needs them."""
+MAX_MEETINGS = 12
+"""Meeting probes (element a moved, since the oldest frame, to where element b is now) added last: a check
+that an object rose with the gripper since the grasp began (a block carried to the suction tip) needs them."""
 
 
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
@@ -183,4 +187,20 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         probes.append(make())
     for i in (i for i in ids if len(base[0][i]) >= 2):  # lines and surfaces: a few turning histories each
         probes += [turning_history(i) for _ in range(TURNS_PER_ELEMENT)]
+    meet_rng = np.random.default_rng([seed, 2])  # its own stream too
+
+    def meeting(a: int, b: int) -> Probe:
+        E0, H0, Ht0 = base
+        dz = float(meet_rng.uniform(-0.02, 0.02))
+        E = {i: p.copy() for i, p in E0.items()}
+        E[a] = E[a] + (E[b].mean(axis=0) - E[a].mean(axis=0) + np.array([0.0, 0.0, dz]))
+        H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
+        Ht = np.concatenate([Ht0 - _dt(Ht0), [t]])
+        return Probe(f"element {a} moved since the oldest frame to element {b} ({dz:+.2f} m above its centre)",
+                     E, H, Ht)
+
+    pairs = [(a, b) for a in ids for b in ids if a != b]
+    if len(pairs) > MAX_MEETINGS:
+        pairs = [pairs[k] for k in sorted(meet_rng.choice(len(pairs), MAX_MEETINGS, replace=False))]
+    probes += [meeting(a, b) for a, b in pairs]
     return probes

@@ -27,12 +27,29 @@ from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputErro
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
 from code_as_monitor.vlm.messages import Message
 from code_as_monitor.vlm.parsing import dump_request, strip_code_fences
+from code_as_monitor.vlm.schemas import program_json_schema
 from code_as_monitor.vlm.templates import PROMPT_VERSION, render
 from code_as_monitor.vlm.usage import UsageMeter
 
 log = logging.getLogger(__name__)
 
 PURPOSE = "monitor_coder"
+PROGRAM_SCHEMA = program_json_schema()
+"""The structured answer's JSON schema (``{"program": source}``), for servers with structured outputs."""
+
+
+def program_text(answer: str) -> str:
+    """The program in an answer: the ``program`` field of a JSON answer (structured output), else the text
+    without its code fences."""
+    text = answer.strip()
+    if text.startswith("{"):
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError:
+            data = None
+        if isinstance(data, dict) and isinstance(data.get("program"), str):
+            return strip_code_fences(data["program"])
+    return strip_code_fences(answer)
 ProgramCheck = Callable[[str], None]
 """Validates a program; raises ProgramError whose message is sent back to the coder."""
 
@@ -186,12 +203,13 @@ class MonitorCoder:
         """
         messages = self.build_messages(subgoal, elements, annotated_images, feedback)
         last_error = ""
+        request = messages
         for attempt in range(1 + max(0, max_retries)):
             t0 = time.monotonic()
-            resp = self.backend.complete(messages, purpose=PURPOSE)
+            resp = self.backend.complete(request, purpose=PURPOSE, schema=PROGRAM_SCHEMA)
             self.usage.record(PURPOSE, resp, time.monotonic() - t0)
-            self.last_messages, self.last_response = messages, resp
-            source = strip_code_fences(resp.text)
+            self.last_messages, self.last_response = request, resp
+            source = program_text(resp.text)
             try:
                 try:
                     ast.parse(source)
@@ -202,7 +220,8 @@ class MonitorCoder:
                 last_error = str(exc)
                 log.info("monitor coder: program rejected (attempt %d): %s", attempt + 1, last_error)
                 repair = render("repair", self.prompt_version, error=last_error, what="program")
-                messages = [*messages, Message.assistant(resp.text), Message.user(repair)]
+                # the original request, the last answer and its error: not the growing conversation
+                request = [*messages, Message.assistant(resp.text), Message.user(repair)]
                 continue
             return source
         raise VLMOutputError(

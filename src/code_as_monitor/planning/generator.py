@@ -1,9 +1,10 @@
 """The constraint generator (paper eq. 1): next subgoal and its during/upon constraints from a VLM backend.
 
 Inputs are the images of every view, the global instruction, the previous subgoal and the monitor's
-feedback; the answer is the JSON of :mod:`code_as_monitor.vlm.schemas`, validated with pydantic. An
-invalid answer is sent back with the validation error up to ``max_retries`` times, then
-:class:`~code_as_monitor.core.errors.VLMOutputError` is raised.
+feedback; the answer is the JSON of :mod:`code_as_monitor.vlm.schemas` (its JSON schema goes to the backend
+for servers with structured outputs), validated with pydantic. An invalid answer is sent back with the
+validation error up to ``max_retries`` times (each re-ask carries the original request, the last answer and
+its error, not the whole conversation), then :class:`~code_as_monitor.core.errors.VLMOutputError` is raised.
 """
 
 from __future__ import annotations
@@ -18,7 +19,13 @@ from code_as_monitor.core.errors import ConfigError, VLMOutputError
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
 from code_as_monitor.vlm.messages import Message
 from code_as_monitor.vlm.parsing import dump_request, extract_json
-from code_as_monitor.vlm.schemas import ALWAYS_PRESENT, SUCCESS_FEEDBACK, GeneratorOutput, parse_generator_output
+from code_as_monitor.vlm.schemas import (
+    ALWAYS_PRESENT,
+    SUCCESS_FEEDBACK,
+    GeneratorOutput,
+    generator_response_schema,
+    parse_generator_output,
+)
 from code_as_monitor.vlm.skills import DEFAULT_SKILLS, skills_markdown
 from code_as_monitor.vlm.templates import PROMPT_VERSION, render
 from code_as_monitor.vlm.usage import UsageMeter
@@ -26,6 +33,8 @@ from code_as_monitor.vlm.usage import UsageMeter
 log = logging.getLogger(__name__)
 
 PURPOSE = "constraint_generator"
+GENERATOR_SCHEMA = generator_response_schema()
+"""The answer's JSON schema, for servers with structured outputs."""
 __all__ = ["PURPOSE", "SUCCESS_FEEDBACK", "ConstraintGenerator"]
 
 
@@ -118,18 +127,20 @@ class ConstraintGenerator:
         scene = [o.split("/", 1)[0] for o in objects]
         context = {"objects": scene + [o for o in ALWAYS_PRESENT if o not in scene], "skills": list(self.skills)}
         last_error = ""
+        request = messages
         for attempt in range(1 + self.max_retries):
             t0 = time.monotonic()
-            resp = self.backend.complete(messages, purpose=PURPOSE)
+            resp = self.backend.complete(request, purpose=PURPOSE, schema=GENERATOR_SCHEMA)
             self.usage.record(PURPOSE, resp, time.monotonic() - t0)
-            self.last_messages, self.last_response = messages, resp
+            self.last_messages, self.last_response = request, resp
             try:
                 out = parse_generator_output(extract_json(resp.text), context)
             except VLMOutputError as exc:
                 last_error = str(exc)
                 log.info("constraint generator: invalid answer (attempt %d): %s", attempt + 1, last_error)
                 repair = render("repair", self.prompt_version, error=last_error, what="JSON object")
-                messages = [*messages, Message.assistant(resp.text), Message.user(repair)]
+                # the original request, the last answer and its error: not the growing conversation
+                request = [*messages, Message.assistant(resp.text), Message.user(repair)]
                 continue
             self.last_output = out
             return out.to_subgoal()

@@ -87,6 +87,17 @@ class Suction(EndEffector):
         """Body id of the attached object, or None."""
         return self._held
 
+    def touching(self, graspable: list[int]) -> int | None:
+        """The closest body of ``graspable`` within ``contact_tol`` of the cup, or None."""
+        import pybullet as pb
+
+        best, best_d = None, self.contact_tol
+        for b in graspable:
+            for cp in pb.getClosestPoints(self.body, b, self.contact_tol, physicsClientId=self.client):
+                if cp[8] <= best_d:
+                    best, best_d = b, cp[8]
+        return best
+
     def activate(self, graspable: list[int]) -> int | None:
         """Switch suction on; attach the closest body of ``graspable`` in contact. Returns it or None."""
         import pybullet as pb
@@ -95,11 +106,7 @@ class Suction(EndEffector):
         self.active = True
         if self._held is not None:
             return self._held
-        best, best_d = None, self.contact_tol
-        for b in graspable:
-            for cp in pb.getClosestPoints(self.body, b, self.contact_tol, physicsClientId=c):
-                if cp[8] <= best_d:
-                    best, best_d = b, cp[8]
+        best = self.touching(graspable)
         if best is None:
             return None
         tpos, torn = pb.getBasePositionAndOrientation(self.body, physicsClientId=c)

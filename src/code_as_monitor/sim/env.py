@@ -78,4 +78,4 @@ def make_env(name: str, seed: int = 0, world_config: WorldConfig | None = None, 
     except BaseException:
         world.close()
         raise
-    return SimEnv(world, task, policy, task.default_plan(), task.instruction)
+    return SimEnv(world, task, policy, task.default_plan(), task.config.instruction or task.instruction)

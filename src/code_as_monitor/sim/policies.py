@@ -35,6 +35,9 @@ from code_as_monitor.sim.world import World
 PARK = (0.32, -0.33, 0.30)  # tip position out of the cameras' way after a placement, metres
 CARRY_Z = 0.16  # tip height for carrying above the scene, metres
 APPROACH = 0.06  # clearance above a surface before the slow descent, metres
+FREE_CLEARANCE = 0.10  # metres from every other object for a spot of free table
+WORKSPACE = ((0.32, 0.68), (-0.28, 0.28))  # (x range, y range) of table the suction tasks use, metres
+CONTACT_SEARCH = 0.02  # a pick descends at most this far below the object's top looking for contact, metres
 PUSH_Z = 0.01  # spatula tip height during a stroke, metres
 SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
     "pick": (("obj",), "suction"),
@@ -157,8 +160,21 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
             return np.asarray(action.args["xy"], dtype=float)
         target = action.args["target"]
         if target == "table":
-            return self.world.robot.tip()[:2].copy()
+            return self.free_table_xy(str(action.args.get("obj", "")))
         return self.world.position(target)[:2]
+
+    def free_table_xy(self, obj: str, clearance: float = FREE_CLEARANCE) -> np.ndarray:
+        """(2,) the table spot nearest the tip's position that is at least ``clearance`` metres from every other
+        object (``obj`` and the table excepted) and inside ``WORKSPACE``: where "put it down on the table" goes."""
+        tip = self.world.robot.tip()[:2]
+        others = [self.world.position(n)[:2] for n in self.world.objects if n not in (obj, "table")]
+        (x0, x1), (y0, y1) = WORKSPACE
+        for r in np.arange(0.0, 0.45, 0.03):
+            for a in np.linspace(0.0, 2 * np.pi, 24, endpoint=False) if r > 0 else (0.0,):
+                p = tip + r * np.array([np.cos(a), np.sin(a)])
+                if x0 <= p[0] <= x1 and y0 <= p[1] <= y1 and all(np.linalg.norm(p - q) >= clearance for q in others):
+                    return p
+        return np.clip(tip, [x0, y0], [x1, y1])
 
     def _lift(self, z: float = CARRY_Z) -> Iterator[None]:
         if self.mover.tip[2] < z - 1e-3:
@@ -183,9 +199,24 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
         yield from self.mover.move([*xy, max(lift, hi[2] + APPROACH)], yaw)
         yield from self.mover.move([*xy, hi[2] + APPROACH * 0.5], speed=SLOW_SPEED * 2)
         yield from self.mover.move([*xy, hi[2] + 0.002], speed=SLOW_SPEED)
+        yield from self._descend_to_contact(xy, hi[2])
         yield from self.mover.wait(0.1)
         self._suction_on()
         yield from self.mover.move([*xy, max(lift, hi[2] + APPROACH)], speed=SLOW_SPEED * 2)
+
+    def _descend_to_contact(self, xy: np.ndarray, top: float) -> Iterator[None]:
+        """Guarded descent: go on down in 3 mm steps (at most ``CONTACT_SEARCH`` below ``top``) until the cup
+        touches something graspable. The arm's inverse kinematics is not exact everywhere in the workspace:
+        close to the base the tip stops up to 1 cm above the commanded height, beyond the cup's contact
+        tolerance, and a suction primitive moves down until contact rather than to a fixed height."""
+        ee = self.world.robot.ee
+        touching = getattr(ee, "touching", None)
+        if touching is None:
+            return
+        z = self.mover.tip[2]
+        while touching(self.world.graspable) is None and z > top - CONTACT_SEARCH:
+            z -= 0.003
+            yield from self.mover.move([*xy, z], speed=SLOW_SPEED, min_time=0.05)
 
     def _place_on(self, obj: str, target: str, xy: list[float] | None = None) -> Iterator[None]:
         dest = self.place_xy(Action("place_on", {"obj": obj, "target": target, "xy": xy}))

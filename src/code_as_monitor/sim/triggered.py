@@ -49,7 +49,7 @@ class Triggered(Disturbance):
         world.tick_hooks.append(self._on_tick)
 
     def _on_tick(self, world: Any) -> None:
-        if self.fired_at is None and self.when(world):
+        if self.fired_at is None and not self.paused(world) and self.when(world):
             self.fired_at = world.t
             self.effect(world, self.rng)
 

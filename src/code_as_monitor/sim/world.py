@@ -95,6 +95,7 @@ class World:
         self.events = EventLog()
         self.tick_hooks: list[Callable[[World], None]] = []
         self.halted_at: float | None = None  # set by a policy's halt(), cleared by start()
+        self.disturbances_paused = False  # counterfactual rollouts: no disturbance starts while True
         self.objects: dict[str, SimObject] = {}
         self.graspable: list[int] = []
         self._body_name: dict[int, str] = {}

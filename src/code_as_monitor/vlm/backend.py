@@ -62,11 +62,15 @@ class VLMResponse:
 class VLMBackend(Protocol):
     """Anything that answers chat messages."""
 
-    def complete(self, messages: list[Message], *, purpose: str) -> VLMResponse:
+    def complete(self, messages: list[Message], *, purpose: str, schema: dict | None = None) -> VLMResponse:
         """Answer ``messages``. ``purpose`` names the caller ("constraint_generator", "monitor_coder", ...).
+        ``schema``: the JSON schema the answer must follow, for servers with structured outputs (a backend may
+        ignore it: callers parse and validate the text either way).
 
         Raises:
-            VLMConfigError: the backend is misconfigured (missing key, bad URL).
+            VLMConfigError: the backend is misconfigured (missing key, bad URL, unknown model).
+            VLMRequestError: the server refuses the request (no images, context too small, ...), not retried.
+            VLMTimeoutError: no answer within the timeout.
             VLMError: the server cannot be reached or keeps failing after bounded retries.
         """
         ...
@@ -75,6 +79,9 @@ class VLMBackend(Protocol):
 @dataclass
 class VLMBackendConfig(Choice):
     """Base of the VLM backend configs."""
+
+
+STRUCTURED_MODES = ("auto", "json_schema", "json_object", "off")
 
 
 @VLMBackendConfig.register("openai")
@@ -86,32 +93,50 @@ class OpenAIBackendConfig(VLMBackendConfig):
         model: model name ("gpt-4o", or whatever a local server serves).
         base_url: server base URL ending in ``/v1``; None uses the SDK default (api.openai.com).
         api_key_env: environment variable holding the key; ``"none"`` for a local server that needs none.
-        timeout_s: per-request timeout, seconds.
-        max_retries: retries after the first attempt on 429, 5xx, timeouts and connection errors.
+        timeout_s: seconds a request may take before it is given up (and closed, so the server can stop).
+            A CPU server answering a long prompt needs minutes: raise it there.
+        connect_timeout_s: seconds to connect.
+        max_retries: retries after the first attempt on 429, 5xx and connection errors (never on 4xx, a
+            timeout, a cut-off answer or a model that takes no images: the same request would fail again).
         backoff_base_s, backoff_max_s: exponential backoff ``base * 2**attempt`` capped at max;
             a server's ``Retry-After`` header wins when present (also capped).
-        temperature, max_tokens: sampling settings.
+        temperature, max_tokens: sampling settings (``max_tokens`` plus the prompt must fit the server's
+            context).
         image_detail: "low", "high" or "auto" for image parts.
+        images: send images (False for a text-only model: the prompts go without their images).
+        structured: the answer format asked of the server: "auto" (the JSON schema as ``response_format``
+            json_schema, falling back to json_object + schema and then to prompt-only JSON when the server
+            refuses one), "json_schema", "json_object" or "off" (prompt-only JSON, repaired by re-asking).
+        stream: stream the answer, so that a request given up on is closed at once (the server sees the client
+            leave and stops generating) and a cut-off answer is seen.
     """
 
     model: str = "gpt-4o"
     base_url: str | None = None
     api_key_env: str = "OPENAI_API_KEY"
-    timeout_s: float = 60.0
+    timeout_s: float = 120.0
+    connect_timeout_s: float = 10.0
     max_retries: int = 3
     backoff_base_s: float = 1.0
     backoff_max_s: float = 30.0
     temperature: float = 0.0
     max_tokens: int = 2048
     image_detail: str = "auto"
+    images: bool = True
+    structured: str = "auto"
+    stream: bool = True
 
     def __post_init__(self) -> None:
         check_positive("openai", "timeout_s", self.timeout_s)
+        check_positive("openai", "connect_timeout_s", self.connect_timeout_s)
         check_positive("openai", "max_retries", self.max_retries, allow_zero=True)
         check_positive("openai", "backoff_base_s", self.backoff_base_s, allow_zero=True)
         check_positive("openai", "max_tokens", self.max_tokens)
         if self.image_detail not in ("low", "high", "auto"):
             raise ConfigError(f"openai.image_detail must be low, high or auto, got {self.image_detail!r}")
+        if self.structured not in STRUCTURED_MODES:
+            raise ConfigError(f"openai.structured must be one of {', '.join(STRUCTURED_MODES)}, got "
+                              f"{self.structured!r}")
         if not self.api_key_env:
             raise ConfigError("openai.api_key_env must name an environment variable (or be 'none')")
 

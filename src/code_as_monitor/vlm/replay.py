@@ -1,9 +1,9 @@
 """``replay``: record another backend's requests and responses to a JSONL cassette, replay them by hash.
 
-A request is identified by the sha256 of its canonical JSON: the purpose and every message, with
-images replaced by the sha256 of their raw pixels (so replay does not depend on a PNG encoder). The
-same request asked several times is answered in recorded order (the last answer repeats). A request
-that is not in the cassette raises :class:`~code_as_monitor.core.errors.ReplayMissError` naming its
+A request is identified by the sha256 of its canonical JSON: the purpose, every message (images replaced
+by the sha256 of their raw pixels, so replay does not depend on a PNG encoder) and the answer's JSON schema
+when one is asked for. The same request asked several times is answered in recorded order (the last answer
+repeats). A request that is not in the cassette raises :class:`~code_as_monitor.core.errors.ReplayMissError` naming its
 hash, purpose and the start of its last user message.
 
 Cassette line: ``{"hash", "purpose", "request": {"messages": [...]}, "response": {...}}``.
@@ -20,14 +20,18 @@ from code_as_monitor.vlm.backend import ReplayBackendConfig, VLMBackend, VLMResp
 from code_as_monitor.vlm.messages import Message
 
 
-def request_record(messages: list[Message], purpose: str) -> dict:
-    """The canonical JSON-able form of a request."""
-    return {"purpose": purpose, "messages": [m.to_record() for m in messages]}
+def request_record(messages: list[Message], purpose: str, schema: dict | None = None) -> dict:
+    """The canonical JSON-able form of a request (the answer schema only when there is one)."""
+    rec: dict = {"purpose": purpose, "messages": [m.to_record() for m in messages]}
+    if schema is not None:
+        rec["schema"] = schema
+    return rec
 
 
-def request_hash(messages: list[Message], purpose: str) -> str:
+def request_hash(messages: list[Message], purpose: str, schema: dict | None = None) -> str:
     """sha256 hex digest of the canonical request."""
-    blob = json.dumps(request_record(messages, purpose), sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+    rec = request_record(messages, purpose, schema)
+    blob = json.dumps(rec, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()
 
 
@@ -81,8 +85,8 @@ class ReplayBackend:
             except (json.JSONDecodeError, KeyError, TypeError) as exc:
                 raise VLMError(f"replay cassette {self.path}, line {n}: not a cassette entry ({exc})") from None
 
-    def complete(self, messages: list[Message], *, purpose: str) -> VLMResponse:
-        h = request_hash(messages, purpose)
+    def complete(self, messages: list[Message], *, purpose: str, schema: dict | None = None) -> VLMResponse:
+        h = request_hash(messages, purpose, schema)
         if self.mode != "record" and h in self.entries:
             answers = self.entries[h]
             i = self.served.get(h, 0)
@@ -94,8 +98,9 @@ class ReplayBackend:
                 f"last user message: {_describe(messages)!r})"
             )
         assert self.inner is not None
-        resp = self.inner.complete(messages, purpose=purpose)
-        rec = {"hash": h, "purpose": purpose, "request": request_record(messages, purpose), "response": resp.to_dict()}
+        resp = self.inner.complete(messages, purpose=purpose, schema=schema)
+        rec = {"hash": h, "purpose": purpose, "request": request_record(messages, purpose, schema),
+               "response": resp.to_dict()}
         with self.path.open("a", encoding="utf-8") as fh:
             fh.write(json.dumps(rec, sort_keys=True) + "\n")
             fh.flush()

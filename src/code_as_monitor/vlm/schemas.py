@@ -146,5 +146,43 @@ def parse_generator_output(data: dict[str, Any], context: dict[str, Any] | None 
 
 
 def generator_json_schema() -> dict[str, Any]:
-    """JSON schema of the answer (documentation and structured-output servers)."""
+    """JSON schema of the answer (documentation)."""
     return GeneratorOutput.model_json_schema()
+
+
+def generator_response_schema() -> dict[str, Any]:
+    """The answer's JSON schema for structured-output servers, with the rule the pydantic model checks after
+    parsing spelled out, so that a server constraining its decoding to the schema cannot produce an answer the
+    validator rejects for it: either ``done`` false with an ``action`` and at least one constraint, or ``done``
+    true with no constraints."""
+    base = GeneratorOutput.model_json_schema()
+    props = base["properties"]
+    working = {
+        "type": "object", "additionalProperties": False,
+        "properties": {"subgoal": props["subgoal"], "done": {"type": "boolean", "enum": [False]},
+                       "action": {"$ref": "#/$defs/ActionOut"},
+                       "constraints": {"type": "array", "items": {"$ref": "#/$defs/ConstraintOut"}, "minItems": 1},
+                       "reasoning": props["reasoning"]},
+        "required": ["subgoal", "done", "action", "constraints"],
+    }
+    finished = {
+        "type": "object", "additionalProperties": False,
+        "properties": {"subgoal": props["subgoal"], "done": {"type": "boolean", "enum": [True]},
+                       "action": {"type": "null"}, "constraints": {"type": "array", "maxItems": 0},
+                       "reasoning": props["reasoning"]},
+        "required": ["subgoal", "done"],
+    }
+    return {"title": "GeneratorOutput", "type": "object", "anyOf": [working, finished], "$defs": base["$defs"]}
+
+
+class ProgramOutput(BaseModel):
+    """The monitor coder's answer when the server takes a JSON schema: the program's source in one field."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    program: str = Field(min_length=1, description="the Python source of every check_<id>(E, H, t) function")
+
+
+def program_json_schema() -> dict[str, Any]:
+    """JSON schema of the coder's structured answer."""
+    return ProgramOutput.model_json_schema()

@@ -10,11 +10,22 @@ the :class:`Task` it builds. Hooks, in the order :func:`code_as_monitor.sim.env.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from code_as_monitor.core.constraints import Action
+from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.registry import Choice, check_positive
+
+
+def _norm(x: Any) -> Any:
+    return tuple(x) if isinstance(x, (list, tuple)) else x
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Equal, treating lists and tuples alike."""
+    return bool(_norm(a) == _norm(b))
 
 
 @dataclass
@@ -28,14 +39,39 @@ class TaskResult:
 
 @dataclass
 class TaskConfig(Choice):
-    """Base of every task config. ``time_limit``: seconds of sim time allowed (the paper's limit)."""
+    """Base of every task config. ``time_limit``: seconds of sim time allowed (the paper's limit).
+
+    ``instruction``: the instruction given to the agent (empty: the task's own). The goal parameters it asks
+    for (a tower order, a count band, ...) are read from it by the instruction grammar
+    (:func:`code_as_monitor.vlm.kb.goals.task_goal`) and set on the config, so the success check and the
+    ground-truth log follow it; a parameter also given explicitly with another value is a ConfigError.
+    """
 
     time_limit: float = 70.0
+    instruction: str = ""
 
     task_class: ClassVar[type[Task]]
 
     def __post_init__(self) -> None:
         check_positive(type(self).__name__, "time_limit", self.time_limit)
+        if self.instruction:
+            self._apply_instruction()
+
+    def scene_objects(self) -> list[str] | None:
+        """The task's object names (what the agent will see), for grounding an instruction; None: infer them."""
+        return None
+
+    def _apply_instruction(self) -> None:
+        from code_as_monitor.vlm.kb.goals import task_goal
+
+        params = task_goal(type(self).name, self.instruction, self.scene_objects())
+        defaults = {f.name: f.default for f in dataclasses.fields(self)}
+        for key, value in params.items():
+            current = getattr(self, key)
+            if _same(current, defaults[key]) is False and _same(current, value) is False:
+                raise ConfigError(f"{type(self).name}: {key}={current!r} contradicts the instruction "
+                                  f"{self.instruction!r}, which asks for {key}={value!r}")
+            setattr(self, key, value)
 
     def make_task(self) -> Task:
         return type(self).task_class(self)
@@ -46,9 +82,6 @@ class Task:
 
     ee_kind: ClassVar[str] = "suction"
     instruction: ClassVar[str] = ""
-    proactive_confirmation: ClassVar[str] = "events"
-    """What confirms a proactive alarm in a counterfactual rollout (``bench.counterfactual``): ``"events"``,
-    a predicted failure event (a toppling tower); ``"task_failure"``, the open-loop plan ends and the task fails."""
 
     def __init__(self, config: TaskConfig) -> None:
         self.config = config

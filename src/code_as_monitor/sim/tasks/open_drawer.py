@@ -78,7 +78,6 @@ class OpenDrawerConfig(TaskConfig):
 
 class OpenDrawer(Task):
     ee_kind = "gripper"
-    proactive_confirmation = "task_failure"
     instruction = "open the drawer by pulling its handle"
 
     def __init__(self, config: OpenDrawerConfig) -> None:

@@ -138,7 +138,6 @@ class PourTeaConfig(TaskConfig):
 
 class PourTea(Task):
     ee_kind = "gripper"
-    proactive_confirmation = "task_failure"
     instruction = "pour the tea from the teapot into the teacup"
 
     def __init__(self, config: PourTeaConfig) -> None:

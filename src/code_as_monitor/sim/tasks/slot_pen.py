@@ -74,7 +74,6 @@ class SlotPenConfig(TaskConfig):
 
 class SlotPen(Task):
     ee_kind = "gripper"
-    proactive_confirmation = "task_failure"
     instruction = "put the pen into the pen holder"
     holder_floor = HOLDER_FLOOR
 

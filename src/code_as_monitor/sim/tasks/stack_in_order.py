@@ -1,14 +1,15 @@
-"""``stack-in-order``: stack red (bottom), green (middle), blue (top).
+"""``stack-in-order``: stack red (bottom), green (middle), blue (top), or the tower an instruction asks for.
 
 Description: three 4 cm blocks (``red_block``, ``green_block``, ``blue_block``; parts ``body`` and
-``top``) lie on the table; the robot (suction cup) must build the tower red-green-blue.
+``top``) lie on the table; the robot (suction cup) must build the tower red-green-blue (config ``order``,
+bottom first; two or three blocks; ``any_order`` accepts any order of them; ``instruction`` sets both).
 
 Randomisation: block positions uniform in x [0.35, 0.65], y [-0.25, 0.25] m (pairwise >= 10 cm
 apart), yaw uniform in [0, 90) degrees.
 
-Success: red on the table, green resting on red and blue on green, each centred within half a block
-(2 cm) horizontally of the one below and at the right height (+-1 cm), nothing held, within
-``time_limit`` (70 s) of sim time.
+Success (default order): red on the table, green resting on red and blue on green, each centred within
+half a block (2 cm) horizontally of the one below and at the right height (+-1 cm), nothing held, within
+``time_limit`` (70 s) of sim time; for another ``order`` the same test over its blocks.
 
 Disturbances (config fields): ``p`` drop probability per drop decision. In CLIPort a "step" is a
 primitive-level action step, not a physics tick, so a decision is taken every ``1 / drop_check_hz``
@@ -30,10 +31,12 @@ lower one's, and a collapse (``tower_collapsed``) leaves a block at table height
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import permutations
 
 import numpy as np
 
 from code_as_monitor.core.constraints import Action
+from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.registry import check_positive, check_probability
 from code_as_monitor.sim.disturbances import Disturbance, DropConfig, PlacementNoiseConfig
 from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
@@ -45,35 +48,58 @@ TOP_TINT = 0.12
 
 
 def tower_in_order(pos: dict[str, np.ndarray], size: float = BLOCK, xy_tol: float | None = None,
-                   z_tol: float = 0.01) -> tuple[bool, str]:
-    """Is ``pos`` (block name -> (3,) centre, metres) a red-green-blue tower standing on z = 0?"""
+                   z_tol: float = 0.01, order: tuple[str, ...] = ORDER) -> tuple[bool, str]:
+    """Is ``pos`` (block name -> (3,) centre, metres) a tower of ``order`` (bottom first) standing on z = 0?"""
     xy_tol = size / 2 if xy_tol is None else xy_tol
-    for level, name in enumerate(ORDER):
+    for level, name in enumerate(order):
         p = np.asarray(pos[name], dtype=float)
         want_z = size / 2 + level * size
         if abs(p[2] - want_z) > z_tol:
             return False, f"{name} is at height {p[2]:.3f} m, expected {want_z:.3f} m"
         if level:
-            below = np.asarray(pos[ORDER[level - 1]], dtype=float)
+            below = np.asarray(pos[order[level - 1]], dtype=float)
             off = float(np.linalg.norm(p[:2] - below[:2]))
             if off > xy_tol:
-                return False, f"{name} is {off * 100:.1f} cm off the centre of {ORDER[level - 1]}"
+                return False, f"{name} is {off * 100:.1f} cm off the centre of {order[level - 1]}"
     return True, "tower in order"
+
+
+def describe_tower(order: tuple[str, ...], any_order: bool = False) -> str:
+    """The instruction for a tower goal (the instruction grammar reads it back to the same goal)."""
+    names = [n.removesuffix("_block") for n in order]
+    if any_order:
+        return f"stack the {', '.join(names[:-1])} and {names[-1]} blocks in any order"
+    if len(names) == 2:
+        return f"put the {names[1]} block on the {names[0]} block"
+    return "stack the blocks: " + ", then ".join([f"{names[0]} at the bottom", *names[1:]])
 
 
 @TaskConfig.register("stack-in-order")
 @dataclass
 class StackInOrderConfig(TaskConfig):
-    """``p``: drop probability per decision; ``q``: placement noise, cm; ``drop_check_hz``: decisions/s."""
+    """``p``: drop probability per decision; ``q``: placement noise, cm; ``drop_check_hz``: decisions/s.
+
+    Goal: ``order``, the tower's blocks bottom first (two or three of red_block, green_block, blue_block);
+    ``any_order``: any order of those blocks succeeds. An ``instruction`` sets both (see TaskConfig)."""
 
     time_limit: float = 70.0
     p: float = 0.0
     q: float = 0.0
     drop_check_hz: float = 2.0
     xy_tol_cm: float = 1.0
+    order: tuple[str, ...] = ORDER
+    any_order: bool = False
+
+    def scene_objects(self) -> list[str]:
+        return [*ORDER, "table"]
 
     def __post_init__(self) -> None:
+        self.order = tuple(self.order)
         super().__post_init__()
+        self.order = tuple(self.order)
+        if len(self.order) < 2 or len(set(self.order)) != len(self.order) or not set(self.order) <= set(ORDER):
+            raise ConfigError(f"stack-in-order.order must be two or three different blocks of {', '.join(ORDER)}, "
+                              f"got {list(self.order)!r}")
         check_positive("stack-in-order", "xy_tol_cm", self.xy_tol_cm)
         check_probability("stack-in-order", "p", self.p)
         check_positive("stack-in-order", "q", self.q, allow_zero=True)
@@ -82,12 +108,15 @@ class StackInOrderConfig(TaskConfig):
 
 class StackInOrder(Task):
     ee_kind = "suction"
-    instruction = "stack the blocks: red at the bottom, then green, then blue"
 
     def __init__(self, config: StackInOrderConfig) -> None:
         super().__init__(config)
         self.config: StackInOrderConfig = config
         self._stacked: dict[str, float] = {}
+
+    @property
+    def instruction(self) -> str:  # type: ignore[override]
+        return self.config.instruction or describe_tower(self.config.order, self.config.any_order)
 
     def load_scene(self, world) -> None:
         import pybullet as pb
@@ -143,7 +172,13 @@ class StackInOrder(Task):
 
     def evaluate(self, world) -> TaskResult:
         pos = {n: world.position(n) for n in ORDER}
-        ok, reason = tower_in_order(pos, xy_tol=self.config.xy_tol_cm / 100.0)
+        orders = list(permutations(self.config.order)) if self.config.any_order else [self.config.order]
+        for order in orders:
+            ok, reason = tower_in_order(pos, xy_tol=self.config.xy_tol_cm / 100.0, order=tuple(order))
+            if ok:
+                break
+        if not ok and len(orders) > 1:
+            reason = f"no order of {', '.join(self.config.order)} stands as a tower ({reason})"
         info = {"t": world.t, "positions": {n: p.tolist() for n, p in pos.items()}}
         if ok and world.robot.ee.holding is not None:
             ok, reason = False, f"{world.name_of(world.robot.ee.holding)} is still held"
@@ -152,17 +187,16 @@ class StackInOrder(Task):
         return TaskResult(ok, reason, info)
 
     def default_plan(self) -> list[Action]:
-        return [
-            Action("pick", {"obj": "green_block"}),
-            Action("place_on", {"obj": "green_block", "target": "red_block"}),
-            Action("pick", {"obj": "blue_block"}),
-            Action("place_on", {"obj": "blue_block", "target": "green_block"}),
-        ]
+        plan: list[Action] = []
+        for below, block in zip(self.config.order, self.config.order[1:]):
+            plan += [Action("pick", {"obj": block}), Action("place_on", {"obj": block, "target": below})]
+        return plan
 
     def disturbances(self, seed: int = 0) -> list[Disturbance]:
         out: list[Disturbance] = []
         if self.config.p > 0:
-            out.append(DropConfig(p=self.config.p, check_hz=self.config.drop_check_hz).build([seed, 1]))
+            out.append(DropConfig(p=self.config.p, check_hz=self.config.drop_check_hz,
+                                  landing_tol=self.config.xy_tol_cm / 100.0).build([seed, 1]))
         if self.config.q > 0:
             out.append(PlacementNoiseConfig(q=self.config.q).build([seed, 2]))
         return out

@@ -84,7 +84,6 @@ class StowBookConfig(TaskConfig):
 
 class StowBook(Task):
     ee_kind = "gripper"
-    proactive_confirmation = "task_failure"
     instruction = "put the book upright into the bookshelf"
     holder_floor = SLOT_FLOOR
 

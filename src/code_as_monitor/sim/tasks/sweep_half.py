@@ -6,7 +6,8 @@ square ``zone`` (part ``surface``, 16 x 16 cm, visual only); the robot holds a s
 Randomisation: zone centre x 0.5 +- 0.03, y 0.2 +- 0.03 m; blocks uniform in a 0.2 x 0.26 m patch on
 the robot's right of the zone (>= 2.8 cm apart), random yaw and colour shade.
 
-Success: ``min_in_zone`` (16) to ``max_in_zone`` (24) block centres inside the zone when evaluated
+Success: ``min_in_zone`` (16) to ``max_in_zone`` (24; an instruction sets both) block centres inside the zone
+when evaluated
 (at ``time_limit`` = 30 s in the open-loop benchmark). The open-loop ``push_into_region`` skill keeps
 sweeping until every block is in, so it overshoots: only a monitor that halts it at the right count
 succeeds (the paper's CLIPort column: 0 %).
@@ -18,6 +19,7 @@ Events: ``zone_count`` (``count``) each time the number of blocks inside changes
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +41,8 @@ def count_in_zone(xy: np.ndarray, center: np.ndarray, half: float) -> int:
 @TaskConfig.register("sweep-half")
 @dataclass
 class SweepHalfConfig(TaskConfig):
-    """``n_blocks`` blocks; success when ``min_in_zone`` .. ``max_in_zone`` are in the zone."""
+    """``n_blocks`` blocks; success when ``min_in_zone`` .. ``max_in_zone`` are in the zone (an ``instruction``
+    sets the band: "push 10 blocks into the zone" -> 9 .. 11, see the kb's sweep family)."""
 
     time_limit: float = 30.0
     n_blocks: int = 40
@@ -56,10 +59,26 @@ class SweepHalfConfig(TaskConfig):
                               f"{self.min_in_zone}, {self.max_in_zone}, {self.n_blocks}")
         check_positive("sweep-half", "zone_half", self.zone_half)
 
+    def scene_objects(self) -> list[str]:
+        return [f"block_{i:02d}" for i in range(self.n_blocks)] + ["zone", "table"]
+
+
+def describe_band(lower: int, upper: int, n: int) -> str:
+    """The instruction for a count band (the instruction grammar reads it back to the same band)."""
+    if (lower, upper) == (math.ceil(0.4 * n), math.floor(0.6 * n)):
+        return "sweep half of the blocks into the zone"
+    if lower == upper:
+        return f"push exactly {lower} of the {n} blocks into the zone"
+    return f"push between {lower} and {upper} of the {n} blocks into the zone"
+
 
 class SweepHalf(Task):
     ee_kind = "spatula"
-    instruction = "sweep half of the blocks into the zone"
+
+    @property
+    def instruction(self) -> str:  # type: ignore[override]
+        cfg = self.config
+        return cfg.instruction or describe_band(cfg.min_in_zone, cfg.max_in_zone, cfg.n_blocks)
 
     def __init__(self, config: SweepHalfConfig) -> None:
         super().__init__(config)

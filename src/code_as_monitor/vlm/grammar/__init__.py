@@ -1,24 +1,16 @@
-"""The shared grammar of instructions: the parse every kb task family grounds on the scene."""
+"""The shared grammar of instructions: ``parse(text) -> Instruction``, which every kb task family grounds.
 
-from __future__ import annotations
+- :mod:`.lexicon`: the words it knows (verbs, object nouns and their synonyms, colours, numbers, fractions,
+  prepositions, positions in a stack, directions, comparisons, modifiers, fillers).
+- :mod:`.tokens`: text -> categorised tokens (multi-word entries, lemmas, numbers).
+- :mod:`.parse`: tokens -> phrases, links between them, listings, verbs, modifiers, measures.
+- :mod:`.model`: the data classes.
 
-from dataclasses import dataclass
+The grammar knows no task: it reads structure ("X on top of Y", "then", "at the bottom", "half of", "10
+blocks"); what that structure means for a task, and whether it can be honoured, is the task family's call.
+"""
 
+from code_as_monitor.vlm.grammar.model import Instruction, Link, Listing, Measure, Phrase, Quantity
+from code_as_monitor.vlm.grammar.parse import parse
 
-@dataclass(frozen=True)
-class Instruction:
-    """A parsed instruction. ``text``: as given; ``lower``: lower-cased."""
-
-    text: str
-
-    @property
-    def lower(self) -> str:
-        return self.text.lower()
-
-
-def parse(text: str) -> Instruction:
-    """Parse ``text``."""
-    return Instruction(str(text))
-
-
-__all__ = ["Instruction", "parse"]
+__all__ = ["Instruction", "Link", "Listing", "Measure", "Phrase", "Quantity", "parse"]

@@ -41,7 +41,8 @@ class KBBackend:
     def __init__(self, config: KBBackendConfig | None = None) -> None:
         self.config = config or KBBackendConfig()
 
-    def complete(self, messages: list[Message], *, purpose: str) -> VLMResponse:
+    def complete(self, messages: list[Message], *, purpose: str, schema: dict | None = None) -> VLMResponse:
+        """Answer as a model would (``schema`` is not needed: the kb writes the formats the prompts ask for)."""
         request = find_request(messages)
         if purpose == "constraint_generator":
             body = json.dumps(next_subgoal(request), indent=2)

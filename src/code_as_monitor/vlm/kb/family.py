@@ -35,6 +35,8 @@ class TaskFamily:
         next_subgoal: ``(goal, previous answer or None, feedback or None) -> answer``: the stateless rule.
         scene: ``instruction -> object names or None``: the simulator's object list for an instruction of this
             family (used when the caller gives no objects).
+        task_params: ``goal -> dict``: the simulator task's config fields that make its success check and
+            ground-truth log follow the goal (``{}`` when the task has none).
         thresholds: constraint kind -> its thresholds (merged into the kb's table; names must be unique).
         templates: template key (constraint id prefix) -> writer of the check (keys must be unique).
         keywords: fallbacks for constraint ids without a known prefix: (word in the text, template key).
@@ -47,6 +49,7 @@ class TaskFamily:
     understand: Callable[[Instruction, list[str]], Any]
     next_subgoal: Callable[[Any, dict[str, Any] | None, str | None], Answer]
     scene: Callable[[Instruction], list[str] | None]
+    task_params: Callable[[Any], dict[str, Any]] = lambda goal: {}
     thresholds: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     templates: Mapping[str, Template] = field(default_factory=dict)
     keywords: tuple[tuple[str, str], ...] = ()

@@ -39,6 +39,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name, tilt
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.reading import Reading, read_placement
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # From the sizes in sim/assets/book.urdf and bookshelf.urdf, never fitted to evaluation outcomes. Metres, radians.
@@ -49,14 +50,12 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # A spine wholly above 15 cm is up in the gripper at carry height (the check is about the book on the
     # table; a spine turned 45 degrees or more at carry height dips below 15 cm, so the check stays testable).
     "aligned": {"max_turn": 0.26, "max_slope": 0.35, "held_z": 0.15},
-    # grasp, upon: the book's (painted) centre within 8 cm of the grasp point, lifted above 5 cm. Its centre
-    # point comes from the visible faces of a 20 x 12 cm book partly hidden by the gripper (up to 5 cm off).
-    "lifted_book": {"max_dist": 0.08, "min_z": 0.05},
-    # grasp, upon: the book has risen 5 cm above where it was when the grasp began (the grasp lifts it to
-    # carry height, 10 cm or more above a book lying flat or standing in the shelf; 5 cm is beyond the
-    # wander of the painted centre of a half-hidden book). Relative, not "above 5 cm": a book left standing
-    # in the shelf is higher than that before the jaws close, so an absolute height ended the grasp early.
-    "raised_book": {"min_rise": 0.05},
+    # grasp, upon: the book's (painted) centre within 8 cm of the grasp point (its centre point comes from the
+    # visible faces of a 20 x 12 cm book partly hidden by the gripper, up to 5 cm off), and risen 5 cm with it
+    # since the grasp began (the grasp lifts it to carry height, 10 cm or more above a book lying flat or
+    # standing in the shelf; 5 cm is beyond the wander of the painted centre of a half-hidden book). Relative,
+    # not "above 5 cm": a book left standing in the shelf is higher than that before the jaws close.
+    "lifted_book": {"max_dist": 0.08, "min_rise": 0.05},
     # stow, during: the book (its centre) stays within 4 cm of the grasp point until its lower end is
     # in the slot: centre within 4 cm of the slot's centre (15 cm slot, 12 cm wide book) and 3 cm below
     # the rim.
@@ -101,24 +100,39 @@ class BookGoal:
     target: str
 
 
-def _about_book(s: str) -> bool:
-    return "book" in s and "shelf" in s
+VERBS = ("put", "stow", "shelve", "insert", "stand", "slide", "pick", "grasp")
+MODIFIERS = ("upright", "up", "in")
+HEADS = ("book", "shelf", "slot")
+DOING = "stows the book upright in the bookshelf's slot"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool({"book", "shelf"} & ins.heads) or "shelve" in ins.verbs
 
 
 def understand(ins: Instruction, objects: list[str]) -> BookGoal | None:
     """The book and shelf grounded on ``objects``; None when the instruction is not about them."""
-    if not _about_book(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
-    book = next((o for o in names if o == "book" or o.endswith("_book")), "")
-    shelf = next((o for o in names if "shelf" in o), "")
-    return BookGoal(book, shelf) if book and shelf else None
+    r = Reading(ins, "stow-book", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers(MODIFIERS, DOING)
+    for k in r.links(("of",), lambda p: p.head == "shelf"):
+        if k.a is not None and ins.resolve(k.a).head == "slot":
+            r.use_link(k)  # "the slot of the bookshelf"
+    for k in ins.links:
+        if k.kind == "on" and ins.resolve(k.b).head == "shelf" and "top" in k.words:
+            r.refuse(f"the book goes into the shelf's slot, not {k.words!r} it")
+    book, shelf = read_placement(r, objects, item=("book",), item_obj=lambda o: o == "book" or o.endswith("_book"),
+                                 place=("shelf", "slot"), place_obj=lambda o: "shelf" in o, preps=("into", "on", "to"),
+                                 what="book", where="bookshelf", place_optional="shelve" in ins.verbs)
+    r.finish()
+    return BookGoal(book, shelf)
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The stow-book scene's objects, or None."""
-    return ["book", "bookshelf", "table"] if _about_book(ins.lower) else None
-
+    return ["book", "bookshelf", "table"] if claims(ins) else None
 
 
 def _cover(obj: str) -> dict[str, str]:
@@ -140,14 +154,12 @@ def grasp(obj: str) -> list[dict[str, Any]]:
     No ``steady`` (displacement) check: a book is turned about its centre under the gripper, which stays
     within the steady check's grasp-point radius, so after a halt there that check could never fail on
     the restart state (path coverage rejects it); ``aligned`` is the book's version."""
-    al, li, ra = _thr("aligned"), _thr("lifted_book"), _thr("raised_book")
+    al, li = _thr("aligned"), _thr("lifted_book")
     return [
         constraint(f"aligned_{obj}", f"the spine of {nice(obj)} lies as it did (slope within 20, direction within 15 degrees) "
            f"while the gripper approaches; a turned book is gripped skewed and cannot be stood upright", "during",
            True, al, [_spine(obj)]),
-        in_gripper(obj, _cover(obj), li)[0],
-        constraint(f"raised_{obj}", f"{nice(obj)} is picked up: its centre at least {ra['min_rise'] * 100:.0f} cm above "
-           f"where it was when the grasp began", "upon", False, ra, [_cover(obj)]),
+        *in_gripper(obj, _cover(obj), li),
     ]
 
 
@@ -249,21 +261,6 @@ def aligned(c: Spec) -> str:
     return check_fn(c, body)
 
 
-def raised(c: Spec) -> str:
-    """Parts: [cover (point)]. The book's centre is at least ``min_rise`` above where it was in the oldest frame
-    of H (the grasp's start): it has been picked up, wherever it lay."""
-    (x,) = c["element_ids"][:1]
-    th, xn = c["thresholds"], obj_name(c, 0)
-    mr = num(th["min_rise"])
-    body = f"""
-    rise = centroid(E[{x}])[2] - centroid(H[{x}][0])[2]
-    if rise >= {mr}:
-        return True, {lit(xn + " is picked up: it rose %.3f m since the grasp began")} % rise, rise - {mr}
-    return False, {lit(xn + " is not picked up: it rose only %.3f m since the grasp began (needs " + mr + ")")} % rise, rise - {mr}
-"""
-    return check_fn(c, body)
-
-
 def conveyed(c: Spec) -> str:
     """Parts: [gripper tip (point), cover (point), spine (line), slot (surface)]. The book stays at the grasp
     point unless it already stands low in the slot (it was let go there)."""
@@ -351,6 +348,6 @@ FAMILY = TaskFamily(
     next_subgoal=next_subgoal,
     scene=scene,
     thresholds=THRESHOLDS,
-    templates={"aligned": aligned, "raised": raised, "conveyed": conveyed, "poised": poised, "aimed": aimed,
+    templates={"aligned": aligned, "conveyed": conveyed, "poised": poised, "aimed": aimed,
                "shelved": shelved, "standing": standing},
 )

@@ -63,6 +63,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, freed, part_spec
+from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 DRAWER_OPEN = 0.15
 """Metres a drawer must come out to count as open: more than half of a 22 cm deep tray, enough to reach in."""
@@ -109,22 +110,49 @@ class DrawerGoal:
     target: str = "handle"
 
 
-def _about_drawer(s: str) -> bool:
-    return "drawer" in s and any(w in s for w in ("open", "pull"))
+VERBS = ("open", "pull", "slide", "grasp", "use")
+MODIFIERS = ("out", "open", "by_handle")
+HEADS = ("drawer", "cabinet", "handle")
+DOING = "opens the drawer by pulling its handle out along its rails (about 15 cm)"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool({"drawer", "cabinet"} & ins.heads) or ("handle" in ins.heads and not {"teapot", "pot"} & ins.heads)
 
 
 def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
     """The cabinet grounded on ``objects``; None when the instruction is not about opening a drawer."""
-    if not _about_drawer(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
-    cabinet = next((o for o in names if "drawer" in o or "cabinet" in o), "")
-    return DrawerGoal(cabinet, "handle") if cabinet else None
+    r = Reading(ins, "open-drawer", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers(MODIFIERS, DOING)
+    if not {"open", "pull", "slide"} & set(ins.verbs) and "open" not in ins.modifiers:
+        r.refuse("say what to do with the drawer: open it")
+    parts = r.phrases(lambda p: p.head in HEADS)
+    if not r.phrases(lambda p: p.head in ("drawer", "handle")):
+        r.refuse("which drawer? say 'the drawer'")
+    for p in parts:
+        q = ins.resolve(p.index)
+        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
+            r.refuse(f"{p.text!r}: the scene has one drawer with one handle")
+        r.use(p.index)
+    for k in ins.links:
+        a = ins.resolve(k.a).head if k.a is not None else ""
+        b = ins.resolve(k.b).head
+        if (k.kind == "of" and a in ("handle", "drawer") and b in ("drawer", "cabinet")) or (
+                k.kind in ("by", "with", "at") and b == "handle") or (k.kind in ("from", "out_of") and b == "cabinet"):
+            r.use_link(k)
+    cabinet = next((o for o in scene_names(objects) if "drawer" in o or "cabinet" in o), "")
+    if not cabinet:
+        r.refuse("the scene has no drawer")
+    r.finish()
+    return DrawerGoal(cabinet, "handle")
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The open-drawer scene's objects, or None."""
-    return ["drawer_cabinet", "table"] if _about_drawer(ins.lower) else None
+    return ["drawer_cabinet", "table"] if claims(ins) else None
 
 
 # --- elements and constraint builders ------------------------------------------------------------------

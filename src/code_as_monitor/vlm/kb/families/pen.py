@@ -34,6 +34,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.reading import Reading, read_placement, scene_names
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # Physical tolerances from the object sizes in sim/assets (pen 14 cm long, 1.2 cm wide; the holder's
@@ -41,8 +42,9 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # grasp, during (proactive): the object stays where it lies until it is between the fingers; a
     # 2 cm slide means the fingers will close on nothing (the pen is 1.2 cm wide).
     "steady": {"max_disp": 0.02, "max_dist": 0.03},
-    # grasp, upon: the part's centre is at the grasp point (within 3 cm) and lifted above 5 cm.
-    "lifted": {"max_dist": 0.03, "min_z": 0.05},
+    # grasp, upon: the part's centre is at the grasp point (within 3 cm) and rose 5 cm with it since the grasp
+    # began (the grasp lifts the pen from the table to 22 cm).
+    "lifted": {"max_dist": 0.03, "min_rise": 0.05},
     # reorient/insert, during: the held part's centre stays within 4 cm of the grasp point.
     "gripped": {"max_dist": 0.04},
     # reorient, upon: the pen axis within 15 degrees of vertical ("near vertical", as the paper's pan).
@@ -73,23 +75,37 @@ class PenGoal:
     target: str
 
 
-def _about_pen(s: str) -> bool:
-    return "pen" in s and "holder" in s
+VERBS = ("put", "insert", "drop", "stand", "pick", "grasp", "stow", "slide")
+MODIFIERS = ("tip_down", "upright", "down", "in")
+HEADS = ("pen", "holder", "pencil", "marker")
+DOING = "puts the pen into the pen holder, tip first"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool(set(HEADS) & ins.heads)
 
 
 def understand(ins: Instruction, objects: list[str]) -> PenGoal | None:
     """The pen and holder grounded on ``objects``; None when the instruction is not about them."""
-    if not _about_pen(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
-    pen = next((o for o in names if o == "pen" or o.endswith("_pen")), "")
-    holder = next((o for o in names if "holder" in o), "")
-    return PenGoal(pen, holder) if pen and holder else None
+    r = Reading(ins, "slot-pen", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers(MODIFIERS, DOING)
+    for p in r.phrases(lambda p: p.head in ("pencil", "marker")):
+        r.refuse(f"the kb's pen rule moves a pen, not {p.text!r}")
+    names = scene_names(objects)
+    holder_words = ("holder", "cup", "pot") if not any("tea" in o for o in names) else ("holder",)
+    pen, holder = read_placement(r, objects, item=("pen",), item_obj=lambda o: o == "pen" or o.endswith("_pen"),
+                                 place=holder_words, place_obj=lambda o: "holder" in o, preps=("into", "to"),
+                                 what="pen", where="pen holder")
+    r.finish()
+    return PenGoal(pen, holder)
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The slot-pen scene's objects, or None."""
-    return ["pen", "pen_holder", "table"] if _about_pen(ins.lower) else None
+    return ["pen", "pen_holder", "table"] if claims(ins) else None
 
 
 # --- constraint builders ---------------------------------------------------------------------------

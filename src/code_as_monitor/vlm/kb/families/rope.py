@@ -17,6 +17,7 @@ from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, num
 from code_as_monitor.vlm.kb.shared.feedback import classify
+from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 DEFAULT_ROPE_BEADS = 20
 """Bead count assumed for ``rope`` when the scene does not list its parts (``rope/bead_NN``)."""
@@ -46,8 +47,13 @@ class RopeGoal:
     rope_beads: tuple[str, ...]
 
 
-def _about_rope(s: str) -> bool:
-    return "rope" in s and any(w in s for w in ("close", "enclose", "opening", "square"))
+VERBS = ("use", "close", "fill", "put", "drag", "arrange", "pull", "stack")
+DOING = "drags the rope across the opening of the square outline until the opening is closed"
+HEADS = ("rope", "opening", "square")
+
+
+def claims(ins: Instruction) -> bool:
+    return bool({"rope", "opening"} & ins.heads) or ("square" in ins.heads and "close" in ins.verbs)
 
 
 def scene_parts(objects: list[str]) -> dict[str, list[str]]:
@@ -62,13 +68,35 @@ def scene_parts(objects: list[str]) -> dict[str, list[str]]:
 
 def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
     """The rope, shape and beads grounded on ``objects``; None when the instruction is not about the rope."""
-    if not _about_rope(ins.lower):
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
+    r = Reading(ins, "rope-close-square", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers((), DOING)
+    ropes = r.phrases(lambda p: p.head == "rope")
+    targets = r.phrases(lambda p: p.head in ("opening", "square"))
+    if not ropes:
+        r.refuse("what closes the opening? the kb's rule uses the rope")
+    if not targets:
+        r.refuse("say what the rope should close: the opening of the square")
+    for p in ropes + targets:
+        q = ins.resolve(p.index)
+        if q.colour or q.quantity is not None or q.position or q.ordinal:
+            r.refuse(f"{p.text!r}: the scene has one rope and one square")
+        r.use(p.index)
+    for k in ins.links:
+        a = ins.resolve(k.a).head if k.a is not None else ""
+        b = ins.resolve(k.b).head
+        if (k.kind in ("of", "into") and a == "opening" and b == "square") or (k.kind == "with" and b == "rope") or (
+                k.kind in ("into", "on", "across", "along", "above", "to", "in_front_of", "through")
+                and b in ("opening", "square") and a in ("", "rope")):
+            r.use_link(k)
+    names = scene_names(objects)
     rope = next((o for o in names if "rope" in o), "")
     shape = next((o for o in names if o in ("square", "shape", "outline")), "")
     if not rope or not shape:
-        return None
+        r.refuse("the scene has no rope" if not rope else "the scene has no square outline")
+    r.finish()
     beads = sorted(p for p in scene_parts(objects).get(rope, []) if re.fullmatch(r"bead_\d+", p))
     if not beads:
         beads = [f"bead_{i:02d}" for i in range(DEFAULT_ROPE_BEADS)]
@@ -77,7 +105,7 @@ def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
 
 def scene(ins: Instruction) -> list[str] | None:
     """The rope-close-square scene's objects, or None."""
-    return ["rope", "square", "table"] if _about_rope(ins.lower) else None
+    return ["rope", "square", "table"] if claims(ins) else None
 
 
 def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str, Any]]:

@@ -1,6 +1,8 @@
 # ruff: noqa: E501  (the template bodies are generated code, kept one statement per line)
 """kb family ``stack`` (task ``stack-in-order``): stack coloured blocks with the suction cup, bottom first.
 
+Reading the instruction (which blocks, in which order): :mod:`.stack_goal`.
+
 Plan: the bottom block stays on the table; for each next level ``pick`` the block, then ``place_on`` the one
 below -> done. Elements: the suction cup's tip (``robot/tip``) and each block as a point (its centre).
 
@@ -15,25 +17,25 @@ Thresholds are the paper's "manually initialized thresholds for common tasks in 
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
 from typing import Any
 
-from code_as_monitor.vlm.grammar import Instruction
+from code_as_monitor.vlm.kb.families.stack_goal import StackGoal, scene, task_params, understand
 from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import TIP, answer, constraint, done, nice, whole
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import classify, mentioned
+from code_as_monitor.vlm.kb.shared.grip import held
 
-COLOURS = ("red", "green", "blue", "yellow", "orange", "purple", "pink", "white", "black", "brown", "gray", "cyan")
 BLOCK_SIZE = 0.04
 """Nominal edge of a stacking block (m); the height tests below are expressed in block sizes."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
-    # pick: the block is on the suction cup and off the table.
+    # pick: the block is on the suction cup and rose with it since the pick began (not "high": a block resting
+    # on the tower under a hovering cup is high and near the tip before anything is picked).
     "held": {
         "max_dist": 0.04,  # tip to block centre: half a block (contact) plus 2 cm slack
-        "min_z": 0.05,  # block centre height: resting centre (2 cm) plus 3 cm lift
+        "min_rise": 0.03,  # the pick lifts the cup 6 cm above the block's top (its approach clearance); 3 cm
+                           # is most of a block's height, far beyond the wander of a tracked centre
     },
     # place_on, during: the carried block stays on the cup until it rests on the target.
     "attached": {
@@ -60,64 +62,10 @@ def _thr(kind: str) -> dict[str, float]:
     return dict(THRESHOLDS[kind])
 
 
-@dataclass(frozen=True)
-class StackGoal:
-    """The tower to build: block names, bottom first."""
-
-    tower: tuple[str, ...]
-
-
-# --- understanding -----------------------------------------------------------------------------------------
-def tower_order(instruction: str, objects: list[str]) -> tuple[str, ...]:
-    """Blocks bottom-first: colours in the order the instruction names them, grounded on ``objects``.
-
-    "red at the bottom, then green, then blue" -> (red_block, green_block, blue_block). A colour named
-    with "at the top" / "on top" is moved last.
-    """
-    s = instruction.lower()
-    named = sorted((m.start(), c) for c in COLOURS for m in re.finditer(rf"\b{c}\b", s))
-    order: list[str] = []
-    for _, c in named:
-        obj = next((o for o in objects if o.lower().startswith(f"{c}_") or o.lower() == c), None)
-        if obj is not None and obj not in order:
-            order.append(obj)
-    for c in COLOURS:
-        if re.search(rf"\b{c}\b[^,.;]*\b(at the top|on top)\b", s):
-            obj = next((o for o in order if o.lower().startswith(c)), None)
-            if obj is not None:
-                order.remove(obj)
-                order.append(obj)
-    return tuple(order)
-
-
-def understand(ins: Instruction, objects: list[str]) -> StackGoal | None:
-    """The tower asked for, grounded on ``objects``; None when the instruction is not about stacking."""
-    s = ins.lower
-    if not ("stack" in s or "tower" in s):
-        return None
-    tower = tower_order(ins.text, [o for o in objects if "/" not in o])
-    return StackGoal(tower) if len(tower) >= 2 else None
-
-
-def scene(ins: Instruction) -> list[str] | None:
-    """``<colour>_block`` for each colour named, in order, plus the table; None when no colour is named."""
-    s = ins.lower
-    colours = [c for _, c in sorted((s.find(c), c) for c in COLOURS if re.search(rf"\b{c}\b", s))]
-    return [f"{c}_block" for c in colours] + ["table"] if colours else None
-
-
 # --- constraint builders -----------------------------------------------------------------------------------
 def pick(obj: str) -> list[dict[str, Any]]:
-    """``pick``: upon, the object is on the suction cup and lifted."""
-    thr = _thr("held")
-    return [
-        constraint(
-            f"held_{obj}",
-            f"{nice(obj)} is held by the suction cup: its centre within {thr['max_dist'] * 100:.0f} cm of the tip "
-            f"and lifted above {thr['min_z'] * 100:.0f} cm",
-            "upon", False, thr, [TIP, whole(obj)],
-        )
-    ]
+    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began."""
+    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup")]
 
 
 def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -176,21 +124,6 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
 
 
 # --- templates ---------------------------------------------------------------------------------------------
-def held(c: Spec) -> str:
-    tip, x = c["element_ids"][:2]
-    th, xn = c["thresholds"], obj_name(c, 1)
-    md, mz = num(th["max_dist"]), num(th["min_z"])
-    body = f"""
-    d = distance(E[{tip}], E[{x}])
-    z = centroid(E[{x}])[2]
-    margin = np.min([{md} - d, z - {mz}])
-    if d <= {md} and z >= {mz}:
-        return True, {lit(xn + " is held by the suction cup (%.3f m from the tip, lifted to %.3f m)")} % (d, z), margin
-    return False, {lit(xn + " is not held by the suction cup: %.3f m from the tip (limit " + md + "), centre %.3f m above the table (needs " + mz + ")")} % (d, z), margin
-"""
-    return check_fn(c, body)
-
-
 def attached(c: Spec) -> str:
     tip, x, tgt = c["element_ids"][:3]
     th, xn, tn = c["thresholds"], obj_name(c, 1), obj_name(c, 2)
@@ -291,11 +224,37 @@ def _place(task: StackGoal, level: int, why: str) -> dict[str, Any]:
     )
 
 
+def _set_down(task: StackGoal, obj: str, restart: int, why: str) -> dict[str, Any]:
+    """Put ``obj`` down on free table (it may still be on the suction cup), then pick the ``restart`` level."""
+    nxt = task.tower[restart]
+    rel = _thr("released")
+    cons = [constraint(f"released_{obj}", f"{nice(obj)} is released: the suction cup tip is at least "
+                       f"{rel['release_dist'] * 100:.0f} cm from its centre", "upon", False, rel, [TIP, whole(obj)])]
+    return answer(f"put {nice(obj)} down on the table, clear of the tower, before picking up {nice(nxt)} again",
+                  "place_on", {"obj": obj, "target": "table"}, cons, why)
+
+
+def _restart_level(task: StackGoal, feedback: str | None) -> int:
+    """The lowest tower level the feedback names (at least level 1): where a disturbed tower is rebuilt from."""
+    levels = [task.tower.index(n) for n in mentioned(feedback, task.tower)]
+    return max(1, min(levels)) if levels else 1
+
+
 def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
+    """The next subgoal of the tower from the previous one and its feedback (stateless).
+
+    A placement that failed with the tower disturbed (a collapse, the block below pushed) may have left the
+    carried block on the suction cup, and a cup that holds one block cannot pick another: the block is put down
+    on free table first, and the subgoal's text names the level to rebuild from, which the next call reads.
+    """
     tower = task.tower
     action = (previous or {}).get("action") or {}
     skill, args = action.get("skill"), action.get("args") or {}
     obj = args.get("obj")
+    if skill == "place_on" and args.get("target") == "table" and obj in tower:  # a set-down: rebuild now
+        named = mentioned((previous or {}).get("text"), tower)
+        level = tower.index(named[-1]) if named and named[-1] != obj else _restart_level(task, feedback)
+        return _pick(task, max(1, level), f"{obj} is out of the way; rebuild from {tower[max(1, level)]}")
     if not previous or skill not in ("pick", "place_on") or obj not in tower[1:]:
         if previous and previous.get("done"):
             return done("the tower is complete")
@@ -303,8 +262,14 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
     level = tower.index(obj)
     cat = classify(feedback)
     if cat == "collapse":
-        levels = [tower.index(n) for n in mentioned(feedback, tower)]
-        lowest = max(1, min(levels)) if levels else 1
+        lowest = _restart_level(task, feedback)
+        if skill == "place_on" and lowest != level:
+            return _set_down(task, obj, lowest, f"the tower was disturbed while {obj} was being placed; it may still "
+                                                f"be on the suction cup, so put it aside, then rebuild from "
+                                                f"{tower[lowest]} (level {lowest})")
+        if skill == "place_on":
+            return _place(task, level, f"the tower below {obj} was disturbed; {obj} is still to be placed on "
+                                       f"{tower[level - 1]}")
         return _pick(task, lowest, f"the tower was disturbed; restart from the lowest level that may be missing, "
                                    f"{tower[lowest]} (level {lowest})")
     if skill == "pick":
@@ -332,8 +297,9 @@ FAMILY = TaskFamily(
     understand=understand,
     next_subgoal=next_stack,
     scene=scene,
+    task_params=task_params,
     thresholds=THRESHOLDS,
-    templates={"held": held, "attached": attached, "still": still, "centred": centred, "resting": resting,
+    templates={"attached": attached, "still": still, "centred": centred, "resting": resting,
                "released": released, "tower": tower},
     keywords=(("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
               ("rests on", "resting"), ("released", "released"), ("still on", "tower")),

@@ -60,6 +60,7 @@ from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 SPOUT_SLOPE = math.radians(35.0)
 """The spout trough's rise above the pot's floor plane: tilted forward past this, the trough slopes down and
@@ -67,9 +68,9 @@ the tea runs out."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # grasp, upon: the handle's (painted) centre within 4 cm of the grasp point (the fin is 5 x 5 cm: the centre
-    # of its visible faces can be 2.5 cm off its true centre) and above 10 cm (5 cm when the pot stands on the
-    # table, the grasp lifts it to 22 cm).
-    "teapot_lifted": {"max_dist": 0.04, "min_z": 0.10},
+    # of its visible faces can be 2.5 cm off its true centre) and risen 5 cm with it since the grasp began (the
+    # handle is at 5 cm when the pot stands on the table; the grasp lifts it to 22 cm).
+    "teapot_lifted": {"max_dist": 0.04, "min_rise": 0.05},
     # transport, pour, drain, level, during: the handle stays within 5 cm of the grasp point; a dropped pot
     # falls to the table, 10 cm or more below it.
     "teapot_gripped": {"max_dist": 0.05},
@@ -110,26 +111,57 @@ class TeaGoal:
     target: str
 
 
-def _about_tea(s: str) -> bool:
-    return "pour" in s and "tea" in s
+VERBS = ("pour", "fill", "grasp", "pick")
+HEADS = ("tea", "teapot", "teacup", "pot", "cup")
+DOING = "pours the tea from the teapot into the teacup"
+
+
+def claims(ins: Instruction) -> bool:
+    return bool({"tea", "teapot", "teacup"} & ins.heads) or "pour" in ins.verbs
 
 
 def understand(ins: Instruction, objects: list[str]) -> TeaGoal | None:
-    """The pot and cup grounded on ``objects``; None when the instruction is not about pouring tea."""
-    if not _about_tea(ins.lower):
+    """The pot and cup grounded on ``objects``; None when the instruction is not about pouring tea.
+
+    Reads "pour (the tea) from the teapot into the teacup", "pour the teapot into the cup", "fill the cup (with
+    tea) from the pot", "pour a cup of tea"; a cup or pot left unsaid is the scene's only one."""
+    if not claims(ins):
         return None
-    names = [o for o in objects if "/" not in o]
+    r = Reading(ins, "pour-tea", heads=HEADS, verbs=VERBS)
+    r.verbs(VERBS, DOING)
+    r.modifiers((), DOING)
+    names = scene_names(objects)
     pot = next((o for o in names if "pot" in o), "")
-    cup = next((o for o in names if "cup" in o), "")
-    return TeaGoal(pot, cup) if pot and cup else None
+    cup = next((o for o in names if "cup" in o and "holder" not in o), "")
+    if not pot or not cup:
+        r.refuse("the scene has no teapot" if not pot else "the scene has no teacup")
+    pots = r.phrases(lambda p: p.head in ("teapot", "pot"))
+    cups = r.phrases(lambda p: p.head in ("teacup", "cup"))
+    teas = r.phrases(lambda p: p.head == "tea")
+    for p in pots + cups + teas:
+        q = ins.resolve(p.index)
+        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.kind not in ("all", "some")):
+            r.refuse(f"{p.text!r}: the kb pours all the tea from the one teapot into the one teacup")
+        r.use(p.index)
+    if not ins.verbs or not {"pour", "fill"} & set(ins.verbs):
+        r.refuse("say what to do with the tea: pour it")
+    if "fill" in ins.verbs and not cups:
+        r.refuse("fill what? the teacup")
+    for k in ins.links:
+        a = ins.resolve(k.a).head if k.a is not None else ""
+        b = ins.resolve(k.b).head
+        if (k.kind == "from" and b in ("teapot", "pot")) or (k.kind in ("into", "to", "on") and b in ("teacup", "cup")) \
+                or (k.kind == "with" and b == "tea") or (k.kind == "of" and a in ("teacup", "cup") and b == "tea"):
+            r.use_link(k)
+    r.finish()
+    return TeaGoal(pot, cup)
 
 
 def scene(ins: Instruction) -> list[str] | None:
     """The pour-tea scene's objects, or None."""
-    return ["teapot", "teacup", "table"] if _about_tea(ins.lower) else None
+    return ["teapot", "teacup", "table"] if claims(ins) else None
 
 
-# --- elements and constraint builders ------------------------------------------------------------------
 def _handle(obj: str) -> dict[str, str]:
     return part_spec(obj, "handle", "point", "handle")
 

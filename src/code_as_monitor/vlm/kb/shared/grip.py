@@ -1,7 +1,13 @@
 # ruff: noqa: E501  (the template bodies are generated code, kept one statement per line)
-"""What every parallel-jaw grasp shares (pen, book, teapot, drawer handle): element specs, constraint builders
-(in the gripper, lifted, still gripped) and the templates of their checks (``grasped``, ``lifted``, ``gripped``,
-``freed``).
+"""What every grasp shares (pen, book, teapot, drawer handle, and the suction cup's blocks): element specs,
+constraint builders (in the gripper, held, still gripped) and the templates of their checks (``grasped``,
+``gripped``, ``freed``, and :func:`held_since_grasp`, the one check behind every "held / lifted / picked up"
+constraint: ``held_`` and ``lifted_`` ids both use it).
+
+A grasp is judged relative to the grasp, never by absolute height: an object resting on another (a block on the
+tower, a book standing in the shelf) is already high, and a hovering tip is already close to it, so "close to
+the tip and above 5 cm" holds before anything is grasped. Held means it rose with the tip since the grasp began
+(the oldest frame of the subgoal's history ``H``) and is at the tip now.
 
 The object's element is passed in (the pen's axis line, the book's cover point, ...); thresholds come from the
 calling family's table. Element order in a constraint's parts is the contract between the builders and the
@@ -24,13 +30,23 @@ def part_spec(obj: str, part: str, kind: str, label: str) -> dict[str, str]:
     return {"name": f"{obj.replace('_', ' ')} {label}", "obj": obj, "part": part, "kind": kind}
 
 
+def held(obj: str, part: dict[str, Any], th: dict[str, float], tip: dict[str, Any] = GRIP_TIP,
+         key: str = "held", by: str = "the gripper") -> dict[str, Any]:
+    """Upon a grasp or pick: ``obj`` is held (:func:`held_since_grasp`): its centre within ``th['max_dist']`` of
+    ``tip`` and risen at least ``th['min_rise']`` since the grasp began. ``key`` is the id's prefix (``held`` or
+    ``lifted``: one template), ``by`` names the end effector in the text."""
+    return constraint(f"{key}_{obj}", f"{nice(obj)} is held by {by}: its centre within {th['max_dist'] * 100:.0f} cm "
+                      f"of the tip and risen at least {th['min_rise'] * 100:.0f} cm with it since the grasp began",
+                      "upon", False, th, [tip, part])
+
+
 def in_gripper(obj: str, part: dict[str, str], li: dict[str, float]) -> list[dict[str, Any]]:
-    """Upon a grasp: the object's centre within ``li['max_dist']`` of the grasp point, and above ``li['min_z']``."""
+    """Upon a grasp: the object's centre within ``li['max_dist']`` of the grasp point (``grasped``), and held:
+    risen at least ``li['min_rise']`` with the gripper since the grasp began (``lifted``)."""
     return [
         constraint(f"grasped_{obj}", f"{nice(obj)} is in the gripper: its centre within {li['max_dist'] * 100:.0f} cm "
                    f"of the grasp point", "upon", False, li, [GRIP_TIP, part]),
-        constraint(f"lifted_{obj}", f"{nice(obj)} is lifted: its centre above {li['min_z'] * 100:.0f} cm", "upon",
-                   False, li, [part]),
+        held(obj, part, li, key="lifted"),
     ]
 
 
@@ -62,16 +78,22 @@ def grasped(c: Spec) -> str:
     return _at_grasp_point(c, " is not held in the gripper: %.3f m from the grasp point (limit {md})")
 
 
-def lifted(c: Spec) -> str:
-    """Parts: [object part (any)]. The part is off the table (a separate decision from ``grasped``)."""
-    (x,) = c["element_ids"][:1]
-    th, xn = c["thresholds"], obj_name(c, 0)
-    mz = num(th["min_z"])
+def held_since_grasp(c: Spec) -> str:
+    """Parts: [tip (point), object part (any)]. The part's centre is within ``max_dist`` of the tip now and has
+    risen at least ``min_rise`` since the oldest frame of ``H`` (the grasp's start): it rose with the tip.
+
+    An object resting on another under a hovering tip has not risen, so it is not held; a dropped one has not
+    either, or is far from the tip."""
+    tip, x = c["element_ids"][:2]
+    th, xn = c["thresholds"], obj_name(c, 1)
+    md, mr = num(th["max_dist"]), num(th["min_rise"])
     body = f"""
-    z = centroid(E[{x}])[2]
-    if z >= {mz}:
-        return True, {lit(xn + " is lifted to %.3f m")} % z, z - {mz}
-    return False, {lit(xn + " is not lifted: its centre is %.3f m above the table (needs " + mz + "), not held")} % z, z - {mz}
+    d = distance(E[{tip}], centroid(E[{x}]))
+    rise = centroid(E[{x}])[2] - centroid(H[{x}][0])[2]
+    margin = np.min([{md} - d, rise - {mr}])
+    if d <= {md} and rise >= {mr}:
+        return True, {lit(xn + " is held: it rose %.3f m with the tip since the grasp began and is %.3f m from it")} % (rise, d), margin
+    return False, {lit(xn + " is not held: it rose %.3f m since the grasp began (needs " + mr + ") and is %.3f m from the tip (limit " + md + ")")} % (rise, d), margin
 """
     return check_fn(c, body)
 
@@ -96,5 +118,6 @@ def freed(c: Spec, label: str = "") -> str:
     return check_fn(c, body)
 
 
-TEMPLATES: dict[str, Template] = {"grasped": grasped, "lifted": lifted, "gripped": gripped, "freed": freed}
+TEMPLATES: dict[str, Template] = {"grasped": grasped, "held": held_since_grasp, "lifted": held_since_grasp,
+                                  "gripped": gripped, "freed": freed}
 """Template key (constraint id prefix) -> writer, for the checks every grasp shares."""

@@ -1,0 +1,237 @@
+"""Code-as-Monitor's per-subgoal checker: paint elements, write and validate the monitor program,
+then track the elements and run the program in the sandbox on every due frame.
+
+At the subgoal's start (:meth:`CodeChecker.begin`): paint -> write the program (VLM call 2, plus
+bounded regenerations on validation / path-coverage errors) -> reset the tracker. Every due frame
+(:meth:`CodeChecker.frame`): track, push the history, evaluate every check. A violated ``during``
+check ends the subgoal (``violated``, halt); every ``upon`` check holding for ``upon_dwell_frames``
+frames ends it (``success``, halting a still-moving policy); a policy that finished is judged on
+re-measured elements over up to ``settle_frames`` more frames (``success`` or ``reactive_failure``).
+A check that reads a stale element (lost by the tracker) gets no verdict that frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.agent.config import AgentConfig
+from code_as_monitor.agent.monitor import MonitorContext, SubgoalEnd
+from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
+from code_as_monitor.core.elements import Element
+from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
+from code_as_monitor.core.observation import Observation
+
+FrameFn = Callable[[Observation, list[Element], dict[int, np.ndarray], list[Verdict], str], None]
+PromptFn = Callable[[int, Subgoal, dict[str, np.ndarray], str], None]
+
+
+class CodeChecker:
+    """Watches one subgoal at a time with a generated monitor program.
+
+    Args:
+        coder: ``write_program(subgoal, elements, images, check, max_retries) -> str``.
+        painter: :class:`~code_as_monitor.painter.Painter` (``paint``, ``build_element``).
+        tracker: ``reset(obs, elements)``, ``step(obs) -> TrackResult``, ``set_reacquire(fn)``.
+        runtime: a monitor runtime (``start``/``step``; closed by its owner).
+        history_factory: builds an element history with ``push(t, points)`` / ``arrays()``.
+        config: the loop settings (rate, dwell, settle, refresh).
+        on_frame: called every judged frame with the elements at their tracked positions (videos,
+            live views); ``on_prompt``: with each subgoal's visual prompts and program.
+    """
+
+    def __init__(self, coder: Any, painter: Any, tracker: Any, runtime: Any, history_factory: Callable[[int], Any],
+                 config: AgentConfig | None = None, on_frame: FrameFn | None = None,
+                 on_prompt: PromptFn | None = None) -> None:
+        self.coder = coder
+        self.painter = painter
+        self.tracker = tracker
+        self.runtime = runtime
+        self.history_factory = history_factory
+        self.cfg = config or AgentConfig()
+        self.on_frame = on_frame
+        self.on_prompt = on_prompt
+        self._settling = False
+
+    def start_episode(self, obs: Observation) -> None:
+        return None
+
+    def close(self) -> None:
+        return None
+
+    # --- subgoal start --------------------------------------------------------------------------------
+    def begin(self, index: int, subgoal: Subgoal, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        painted = self.painter.paint(obs, subgoal)
+        for m in painted.missing:
+            ctx.emit("element_missing", t=obs.t, spec=m.to_dict())
+        ctx.emit("elements", t=obs.t, legend=painted.legend(), seconds=painted.seconds)
+        if painted.missing:
+            names = ", ".join(f"{s.obj}/{s.part}" if s.part else s.obj for s in painted.missing)
+            return SubgoalEnd("error", f"cannot see {names}")
+        elements = painted.elements
+        positions = {e.id: e.points for e in elements}
+        history = self.history_factory(self.cfg.history_len)
+        history.push(obs.t, positions)
+
+        attempts = {"n": 0}
+
+        def check(source: str) -> None:
+            attempts["n"] += 1
+            H, ht = history.arrays()
+            self.runtime.start(source, subgoal.constraints, positions, H, ht, obs.t)
+
+        try:
+            source = self.coder.write_program(subgoal, elements, painted.images, check=check,
+                                              max_retries=self.cfg.code_retries)
+        except (ProgramError, VLMError) as exc:
+            ctx.emit("program_rejected", t=obs.t, error=str(exc))
+            return SubgoalEnd("error", f"no valid monitor program: {exc}", code_attempts=attempts["n"])
+        ctx.episode.programs.append(source)
+        ctx.emit("program", t=obs.t, index=index, source=source, attempts=attempts["n"])
+        if self.on_prompt is not None:
+            self.on_prompt(index, subgoal, painted.images, source)
+
+        self.tracker.reset(obs, elements)
+        self.tracker.set_reacquire(lambda o, el: self.painter.build_element(o, el.id, painted.specs[el.id]))
+        self._subgoal, self._painted, self._elements, self._history = subgoal, painted, elements, history
+        self._attempts = attempts["n"]
+        self._period = 1.0 / self.cfg.frame_hz
+        self._next_frame = obs.t + self._period
+        self._upon = subgoal.upon()
+        self._upon_streak = 0
+        self._verdict_state: dict[str, str] = {}  # constraint id -> "ok" | "violated" | "fault"
+        self._uses = {c.id: set(c.element_ids) for c in subgoal.constraints}
+        self._unknown_before: set[str] = set()
+        self._settling = False
+        return None
+
+    # --- every frame ------------------------------------------------------------------------------------
+    def frame_due(self, t: float, policy_done: bool) -> bool:
+        if self._settling:
+            return t + 1e-9 >= self._settle_next
+        return policy_done or t + 1e-9 >= self._next_frame
+
+    def frame(self, obs: Observation, policy_done: bool, ctx: MonitorContext) -> SubgoalEnd | None:
+        if self._settling:
+            return self._settle(obs, ctx)
+        self._next_frame += self._period
+        end = self._end_of
+        try:
+            verdicts, tr = self._monitor_frame(obs, ctx)
+        except PerceptionError as exc:
+            return end("error", f"perception failed: {exc}", halt=True)
+        # A check that reads a stale element (lost by the tracker, not yet re-acquired, or with
+        # non-finite points) has no verdict this frame: it can neither raise an alarm nor complete
+        # the subgoal.
+        stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
+        stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
+        unknown = {cid for cid, ids in self._uses.items() if ids & stale_ids}
+        if unknown != self._unknown_before:
+            ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))
+            self._unknown_before = unknown
+        verdicts = [v for v in verdicts if v.constraint_id not in unknown]
+        violated = [v for v in verdicts if v.phase is Phase.DURING and not v.ok and not v.fault]
+        upon_v = [v for v in verdicts if v.phase is Phase.UPON and not v.fault]
+        for v in verdicts:
+            if v.fault:
+                ctx.emit("program_fault", t=v.t, constraint_id=v.constraint_id, reason=v.reason)
+        upon = self._upon
+        upon_ok = bool(upon) and len(upon_v) == len(upon) and all(v.ok for v in upon_v)
+        self._upon_streak = self._upon_streak + 1 if upon_ok else 0
+        if violated:
+            v = violated[0]
+            ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, v.t)
+            self._frame(obs, tr, verdicts, f"VIOLATION {v.constraint_id}: {v.reason}")
+            return end("violated", f"{v.constraint_id}: {v.reason}", halt=True)
+        if upon_ok and (policy_done or (self.cfg.halt_on_upon and self._upon_streak >= self.cfg.upon_dwell_frames)):
+            if not policy_done:
+                ctx.emit("early_halt", t=obs.t, reason="all upon constraints satisfied")
+            self._frame(obs, tr, verdicts, "subgoal complete")
+            return end("success", "; ".join(v.reason for v in upon_v), halt=not policy_done)
+        self._frame(obs, tr, verdicts, "")
+        if policy_done:
+            # Judge the upon checks on re-measured elements, starting with this very frame.
+            self._settling = True
+            self._settle_attempt = 0
+            return self._settle(obs, ctx)
+        if ctx.out_of_time(obs.t):
+            # Not a monitor decision: the episode ends here, the policy is not halted (a task that
+            # scores "halted in time" must not count the clock running out as a halt).
+            return end("timeout", "time limit reached during the subgoal")
+        return None
+
+    def _end_of(self, outcome: str, reason: str, halt: bool = False) -> SubgoalEnd:
+        return SubgoalEnd(outcome, reason, halt=halt, code_attempts=self._attempts)
+
+    def _monitor_frame(self, obs: Observation, ctx: MonitorContext) -> tuple[list[Verdict], Any]:
+        """Track, push the history, evaluate every check in the sandbox. Verdict events are written
+        when a check's state (ok / violated / fault) changes, not every frame."""
+        tr = self.tracker.step(obs)
+        self._history.push(obs.t, tr.points)
+        H, ht = self._history.arrays()
+        verdicts = self.runtime.step(tr.points, H, ht, obs.t)
+        for v in verdicts:
+            state = "fault" if v.fault else ("ok" if v.ok else "violated")
+            if self._verdict_state.get(v.constraint_id) != state:
+                self._verdict_state[v.constraint_id] = state
+                ctx.emit("verdict", **v.to_dict())
+        return verdicts, tr
+
+    def _frame(self, obs: Observation, tr: Any, verdicts: list[Verdict], banner: str) -> None:
+        """Hand the frame to ``on_frame`` with the elements at their tracked positions."""
+        if self.on_frame is None:
+            return
+        current = [Element(e.id, e.name, e.kind, tr.points.get(e.id, e.points), e.owner, e.color)
+                   for e in self._elements]
+        self.on_frame(obs, current, tr.stale, verdicts, banner)
+
+    # --- the policy has finished: judge the upon checks ---------------------------------------------------
+    def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
+        one period apart, until every upon check has a verdict that is neither a fault nor stale."""
+        upon_ids = {c.id for c in self._upon}
+        tr = self.tracker.step(obs)
+        points = dict(tr.points)
+        stale = {i: np.asarray(st) for i, st in tr.stale.items()}
+        if self.cfg.refresh_on_done:
+            H0, _ = self._history.arrays()
+            for e in self._elements:
+                if e.owner[0] == "robot" or e.id not in H0:
+                    continue
+                moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
+                if moved <= self.cfg.refresh_motion:
+                    points[e.id] = e.points  # at rest all along: its measurement from the subgoal start
+                    stale[e.id] = np.zeros(len(e.points), dtype=bool)
+                    continue
+                fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
+                if fresh is not None and fresh.points.shape == points[e.id].shape:
+                    points[e.id] = fresh.points
+                    stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
+        self._history.push(obs.t, points)
+        H, ht = self._history.arrays()
+        stale_ids = {i for i, st in stale.items() if np.any(st)}
+        verdicts = [
+            v for v in self.runtime.step(points, H, ht, obs.t)
+            if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)
+        ]
+        if len(verdicts) != len(upon_ids) and self._settle_attempt < self.cfg.settle_frames:
+            self._settle_attempt += 1
+            self._settle_next = obs.t + self._period
+            return None
+        self._settling = False
+        ctx.emit("final_check", t=obs.t, verdicts=[v.to_dict() for v in verdicts], refreshed=self.cfg.refresh_on_done)
+        if not self._upon:
+            return self._end_of("success", "policy finished")
+        if len(verdicts) == len(self._upon) and all(v.ok for v in verdicts):
+            return self._end_of("success", "; ".join(v.reason for v in verdicts))
+        bad = [v for v in verdicts if not v.ok]
+        v = bad[0] if bad else None
+        if v is not None:
+            ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, v.t)
+            return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason}")
+        return self._end_of("reactive_failure", "no verdict on the upon checks (faults or lost elements)")
+
+
+__all__ = ["CodeChecker"]

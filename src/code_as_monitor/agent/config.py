@@ -1,0 +1,156 @@
+"""Settings of the closed loop and the one place that builds a Code-as-Monitor :class:`Monitor`.
+
+:class:`AgentConfig` holds the loop's own settings (rate, bounds, dwell, settle); :class:`MonitorConfig`
+adds the swappable stages, chosen by their registered names: the VLM backend (planner and coder), the
+segmenter, the tracker, and which cameras to use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
+from code_as_monitor.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from code_as_monitor.agent.monitor import Monitor
+
+
+@dataclass
+class AgentConfig:
+    """Closed-loop settings.
+
+    Attributes:
+        frame_hz: monitoring rate (frames per second of observation time).
+        max_replans: failed subgoals allowed before giving up.
+        max_subgoals: hard bound on subgoals per episode.
+        time_limit_s: no subgoal is planned at or after this time (observation seconds); None for none.
+        history_len: frames of element history fed to the program as H.
+        code_retries: regenerations allowed when validation or path coverage fails.
+        halt_on_upon: halt a still-moving policy as soon as every upon check holds.
+        upon_dwell_frames: consecutive frames the upon checks must hold before completing.
+        refresh_on_done: when the policy finishes, re-measure the elements before judging the upon
+            checks, so tracker drift accumulated during the motion does not decide the outcome: an element
+            the tracker saw move more than ``refresh_motion`` during the subgoal (the carried object) is
+            re-painted from the current, static frame; one it saw at rest keeps its measurement from the
+            subgoal start, when it was painted unoccluded (re-painting it now would measure whatever is
+            left visible, e.g. the sides of a block another block now covers). Robot elements follow
+            forward kinematics either way.
+        refresh_motion: metres of tracked centroid motion over the subgoal above which an element counts
+            as moved.
+        settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
+            or a stale element), wait up to this many frames for one before calling it a failure.
+    """
+
+    frame_hz: float = 10.0
+    max_replans: int = DEFAULT_MAX_REPLANS
+    max_subgoals: int = DEFAULT_MAX_SUBGOALS
+    time_limit_s: float | None = None
+    history_len: int = 64
+    code_retries: int = 2
+    halt_on_upon: bool = True
+    upon_dwell_frames: int = 2
+    refresh_on_done: bool = True
+    refresh_motion: float = 0.03
+    settle_frames: int = 5
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        if not self.frame_hz > 0:
+            raise ConfigError(f"{name}.frame_hz must be > 0, got {self.frame_hz!r}")
+        if self.max_replans < 0:
+            raise ConfigError(f"{name}.max_replans must be >= 0, got {self.max_replans!r}")
+        if self.max_subgoals < 1:
+            raise ConfigError(f"{name}.max_subgoals must be >= 1, got {self.max_subgoals!r}")
+        if self.history_len < 2:
+            raise ConfigError(f"{name}.history_len must be >= 2, got {self.history_len!r}")
+        if self.time_limit_s is not None and not self.time_limit_s > 0:
+            raise ConfigError(f"{name}.time_limit_s must be > 0 or None, got {self.time_limit_s!r}")
+        for f in ("code_retries", "upon_dwell_frames", "settle_frames"):
+            if getattr(self, f) < 0:
+                raise ConfigError(f"{name}.{f} must be >= 0, got {getattr(self, f)!r}")
+
+
+@dataclass
+class MonitorConfig(AgentConfig):
+    """A Code-as-Monitor monitor: the loop settings plus the stages, chosen by registered name.
+
+    Attributes:
+        backend, backend_options: the VLM backend for the planner and the coder (``kb``: a rule-based
+            stand-in for a VLM, not a VLM; ``openai``: any OpenAI-compatible server; ``replay``).
+        segmenter, segmenter_options: ``sim`` (ground-truth masks in ``View.seg``), ``color``, ``http``.
+        tracker, tracker_options: ``lk`` (OpenCV Lucas-Kanade), ``sim`` (oracle poses), ...
+        cameras: view names the monitor uses; None: every view of each observation.
+        deadline_s: the sandbox's per-frame deadline for running every check (seconds); a frame past
+            it is a program fault for every check (no verdict). 20 ms suits 10 Hz on an idle machine.
+    """
+
+    backend: str = "kb"
+    backend_options: dict[str, Any] = field(default_factory=dict)
+    segmenter: str = "sim"
+    segmenter_options: dict[str, Any] = field(default_factory=dict)
+    tracker: str = "lk"
+    tracker_options: dict[str, Any] = field(default_factory=dict)
+    cameras: list[str] | None = None
+    deadline_s: float = 0.020
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not self.deadline_s > 0:
+            raise ConfigError(f"MonitorConfig.deadline_s must be > 0, got {self.deadline_s!r}")
+        if self.cameras is not None and (not self.cameras or not all(isinstance(c, str) and c for c in self.cameras)):
+            raise ConfigError(f"MonitorConfig.cameras must be a non-empty list of view names or None, "
+                              f"got {self.cameras!r}")
+
+    def check(self) -> None:
+        """Raise UnknownChoiceError / ConfigError naming a bad backend, segmenter or tracker (or one of
+        their options), without building anything."""
+        from code_as_monitor.perception import SegmenterConfig, TrackerConfig
+        from code_as_monitor.vlm import VLMBackendConfig
+
+        VLMBackendConfig.from_name(self.backend, **self.backend_options)
+        SegmenterConfig.from_name(self.segmenter, **self.segmenter_options)
+        TrackerConfig.from_name(self.tracker, **self.tracker_options)
+
+    def agent_config(self) -> AgentConfig:
+        return AgentConfig(**{k: getattr(self, k) for k in AgentConfig.__dataclass_fields__})
+
+
+def build_monitor(config: MonitorConfig, on_event: Callable[..., Any] | None = None, on_frame: Any = None,
+                  on_prompt: Any = None, backend: Any = None) -> Monitor:
+    """Build Code-as-Monitor from ``config``: backend -> planner and coder, segmenter -> painter,
+    tracker, a sandboxed runtime and element histories. ``backend``: an already built backend to use
+    instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory
+    was made). The monitor owns the runtime's worker; call :meth:`Monitor.close`."""
+    from code_as_monitor.agent.code_checker import CodeChecker
+    from code_as_monitor.agent.monitor import Monitor
+    from code_as_monitor.monitor.runtime import MonitorRuntime
+    from code_as_monitor.painter import Painter
+    from code_as_monitor.perception import (
+        ElementHistory,
+        SegmenterConfig,
+        TrackerConfig,
+        make_segmenter,
+        make_tracker,
+    )
+    from code_as_monitor.planning.coder import MonitorCoder
+    from code_as_monitor.planning.generator import ConstraintGenerator
+    from code_as_monitor.vlm import VLMBackendConfig, make_backend
+
+    if backend is None:
+        backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
+    generator = ConstraintGenerator(backend)
+    coder = MonitorCoder(backend, usage=generator.usage)
+    painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
+    tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
+    runtime = MonitorRuntime(deadline_s=config.deadline_s)
+    checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),
+                          on_frame=on_frame, on_prompt=on_prompt)
+    return Monitor(generator, checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
+                   time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
+                   usage=generator.usage, owned=[runtime])
+
+
+__all__ = ["AgentConfig", "MonitorConfig", "build_monitor"]

@@ -1,0 +1,340 @@
+"""The streaming closed loop: ``Monitor.start(instruction)``, ``Monitor.step(observation) -> Decision``.
+
+One object drives every closed-loop method, in the simulator and on a robot: the planner proposes a
+subgoal from the observation, the previous subgoal and the feedback (paper eq. 1); a per-subgoal
+:class:`SubgoalChecker` watches it frame by frame (Code-as-Monitor's painted elements, generated
+program, tracker and sandbox; or a baseline's yes/no questions); the subgoal's outcome becomes the
+next feedback (``"success"`` or ``"failure: <reason>"``). The monitor stops when the planner says the
+task is complete, after ``max_replans`` failed subgoals, after ``max_subgoals`` subgoals, or at the
+time limit.
+
+The caller owns the policy and the clock. Each frame it hands over an
+:class:`~code_as_monitor.core.observation.Observation` and whether the policy has finished its
+current action; the :class:`~code_as_monitor.agent.decision.Decision` says whether to halt, which
+action to start, and whether the episode is over. Nothing here imports the simulator.
+
+    monitor = Monitor.from_config(MonitorConfig(backend="kb", segmenter="color", tracker="lk"))
+    monitor.start("stack the blocks: red at the bottom, then green, then blue")
+    while True:
+        obs = robot.observe()                          # multi-view RGB-D + robot state, robot clock
+        d = monitor.step(obs, policy_done=policy.done)
+        if d.halt:
+            policy.halt()
+        if d.action is not None:
+            policy.start(d.action)
+        if d.finished:
+            break
+        policy.step()                                  # or let the robot's own controller run
+    monitor.close()
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Protocol
+
+from code_as_monitor.agent.decision import Decision, DecisionKind
+from code_as_monitor.agent.records import (
+    DEFAULT_MAX_REPLANS,
+    DEFAULT_MAX_SUBGOALS,
+    SUCCESS_FEEDBACK,
+    Alarm,
+    EpisodeLog,
+    SubgoalRecord,
+)
+from code_as_monitor.core.constraints import Subgoal
+from code_as_monitor.core.errors import ConfigError, ObservationError, VLMError
+from code_as_monitor.core.observation import Observation
+
+if TYPE_CHECKING:
+    from code_as_monitor.agent.config import MonitorConfig
+
+log = logging.getLogger(__name__)
+
+EventFn = Callable[..., Any]
+
+
+def _noop_event(kind: str, **fields: Any) -> None:
+    return None
+
+
+@dataclass
+class SubgoalEnd:
+    """A checker's verdict that the current subgoal is over: its outcome, reason, and whether the
+    policy must be halted (it is still moving)."""
+
+    outcome: str
+    reason: str
+    halt: bool = False
+    code_attempts: int = 0
+
+
+class SubgoalChecker(Protocol):
+    """The per-subgoal part of a method (Code-as-Monitor's, or a baseline's)."""
+
+    def start_episode(self, obs: Observation) -> None:
+        """Called with the episode's first observation (the one the first subgoal is planned on)."""
+
+    def begin(self, index: int, subgoal: Subgoal, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        """Prepare to watch ``subgoal`` from ``obs``; a :class:`SubgoalEnd` ends it before it starts."""
+
+    def frame_due(self, t: float, policy_done: bool) -> bool:
+        """Whether the checker wants a frame at time ``t`` (frames in between are skipped)."""
+
+    def frame(self, obs: Observation, policy_done: bool, ctx: MonitorContext) -> SubgoalEnd | None:
+        """Judge one due frame; None: the subgoal goes on."""
+
+    def close(self) -> None:
+        """Release workers and files."""
+
+
+class MonitorContext:
+    """What a checker may use of the monitor: events, alarms, the episode log, the time limit."""
+
+    def __init__(self, monitor: Monitor) -> None:
+        self._m = monitor
+
+    @property
+    def episode(self) -> EpisodeLog:
+        return self._m.episode
+
+    def emit(self, kind: str, **fields: Any) -> None:
+        self._m.emit(kind, **fields)
+
+    def out_of_time(self, t: float) -> bool:
+        limit = self._m.time_limit_s
+        return limit is not None and t >= limit
+
+    def alarm(self, subgoal: Subgoal, constraint_id: str, phase: str, reason: str, t: float) -> Alarm:
+        """Record and emit an alarm on ``constraint_id`` (proactive when its constraint is)."""
+        c = next((c for c in subgoal.constraints if c.id == constraint_id), None)
+        a = Alarm(t, constraint_id, phase, bool(c and c.proactive), reason, subgoal.text)
+        self._m.episode.alarms.append(a)
+        self._m._frame_alarms.append(a)
+        self.emit("alarm", **a.to_dict())
+        return a
+
+
+class Monitor:
+    """The closed loop as a streaming object (see the module docstring).
+
+    Args:
+        planner: ``next_subgoal(instruction, images, objects, previous, feedback) -> Subgoal``.
+        checker: the method's :class:`SubgoalChecker`.
+        max_replans: failed subgoals allowed before giving up.
+        max_subgoals: subgoals allowed per episode.
+        time_limit_s: no new subgoal is planned at or after this time (observation seconds); None: none.
+        cameras: view names to use; None: every view of the observation.
+        on_event: ``fn(kind, **fields)`` for the event log.
+        usage: the planner's token meter (``calls``, ``episode()``), reported by :attr:`usage`.
+        owned: objects closed by :meth:`close` (the sandbox runtime of :meth:`from_config`).
+    """
+
+    def __init__(self, planner: Any, checker: SubgoalChecker, *, max_replans: int = DEFAULT_MAX_REPLANS,
+                 max_subgoals: int = DEFAULT_MAX_SUBGOALS, time_limit_s: float | None = None,
+                 cameras: list[str] | None = None, on_event: EventFn | None = None, usage: Any = None,
+                 owned: list[Any] | None = None) -> None:
+        if max_replans < 0:
+            raise ConfigError(f"Monitor: max_replans must be >= 0, got {max_replans!r}")
+        if max_subgoals < 1:
+            raise ConfigError(f"Monitor: max_subgoals must be >= 1, got {max_subgoals!r}")
+        self.planner = planner
+        self.checker = checker
+        self.max_replans = max_replans
+        self.max_subgoals = max_subgoals
+        self.time_limit_s = time_limit_s
+        self.cameras = list(cameras) if cameras else None
+        self.emit: EventFn = on_event or _noop_event
+        self.usage = usage
+        self._owned = list(owned or [])
+        self._ctx = MonitorContext(self)
+        self.episode = EpisodeLog("")
+        self._state = "idle"  # idle -> plan -> run -> ... -> over
+        self._frame_alarms: list[Alarm] = []
+        self._subgoal: Subgoal | None = None
+        self._previous: Subgoal | None = None
+        self._feedback: str | None = None
+        self._index = 0
+        self._last_t: float | None = None
+
+    @classmethod
+    def from_config(cls, config: MonitorConfig, on_event: EventFn | None = None, on_frame: Any = None,
+                    on_prompt: Any = None) -> Monitor:
+        """Build Code-as-Monitor from a :class:`~code_as_monitor.agent.config.MonitorConfig`
+        (VLM backend, segmenter, tracker, cameras, rates); see :func:`~code_as_monitor.agent.config.build_monitor`."""
+        from code_as_monitor.agent.config import build_monitor
+
+        return build_monitor(config, on_event=on_event, on_frame=on_frame, on_prompt=on_prompt)
+
+    # ------------------------------------------------------------------------------------------------
+    @property
+    def subgoal(self) -> Subgoal | None:
+        """The subgoal being watched (None between subgoals and once the episode is over)."""
+        return self._subgoal if self._state == "run" else None
+
+    @property
+    def finished(self) -> bool:
+        return self._state == "over"
+
+    def start(self, instruction: str) -> None:
+        """Begin an episode for ``instruction``; the first :meth:`step` plans the first subgoal."""
+        if not isinstance(instruction, str) or not instruction.strip():
+            raise ConfigError(f"Monitor.start: the instruction must be a non-empty string, got {instruction!r}")
+        self.episode = EpisodeLog(instruction)
+        self._state = "plan"
+        self._subgoal = self._previous = None
+        self._feedback = None
+        self._index = 0
+        self._last_t = None
+
+    def frame_due(self, t: float, policy_done: bool = False) -> bool:
+        """Whether :meth:`step` would judge a frame taken at ``t`` (a caller whose frames are expensive
+        asks before rendering). Between subgoals every frame is due; after the episode none is."""
+        if self._state == "run":
+            return self.checker.frame_due(t, policy_done)
+        return self._state == "plan"
+
+    def step(self, obs: Observation, policy_done: bool = False) -> Decision:
+        """Take one observation; returns what the control loop must do (see :class:`Decision`).
+
+        ``policy_done``: the policy has finished its current action by itself (its ``upon`` checks
+        are then judged; without it, a subgoal ends only on a violation or on its upon checks).
+        A frame that is not due (the monitoring rate is lower than the camera's) returns ``continue``
+        without being looked at.
+        """
+        if self._state == "idle":
+            raise ConfigError("Monitor.step called before Monitor.start(instruction)")
+        if self._state == "over":
+            raise ConfigError("Monitor.step called after the episode ended; call start() for a new one")
+        obs = self._select_views(obs)
+        if self._last_t is not None and obs.t < self._last_t:
+            raise ObservationError(f"observation time went backwards: {obs.t!r} after {self._last_t!r}")
+        if self._last_t is None:
+            self.emit("episode_start", t=obs.t, instruction=self.episode.instruction)
+            self.checker.start_episode(obs)
+        self._last_t = obs.t
+        self._frame_alarms = []
+        if self._state == "plan":
+            return self._plan(obs, DecisionKind.START, halt=False, ended=None)
+        if not self.checker.frame_due(obs.t, policy_done):
+            return Decision(DecisionKind.CONTINUE, obs.t, subgoal=self._subgoal)
+        end = self.checker.frame(obs, policy_done, self._ctx)
+        if end is None:
+            return Decision(DecisionKind.CONTINUE, obs.t, subgoal=self._subgoal)
+        record = self._end_subgoal(end, obs.t)
+        kind = (DecisionKind.SUBGOAL_DONE if end.outcome == "success"
+                else DecisionKind.HALT if end.outcome == "violated" else DecisionKind.SUBGOAL_FAILED)
+        if self._state == "over":
+            return self._over(obs.t, halt=end.halt, ended=record)
+        return self._plan(obs, kind, halt=end.halt, ended=record)
+
+    def stop(self, reason: str, t: float | None = None) -> Decision:
+        """End the episode from outside (the recording ended, an operator stopped the robot); the
+        subgoal under way, if any, is left without an outcome. Returns the final ``stopped`` decision."""
+        if self._state in ("idle", "over"):
+            raise ConfigError(f"Monitor.stop called while no episode is under way (state {self._state!r})")
+        self.episode.stop_reason = reason
+        t_end = t if t is not None else (self._last_t if self._last_t is not None else 0.0)
+        self._frame_alarms = []
+        return self._over(t_end, halt=False, ended=None)
+
+    def close(self) -> None:
+        """Release the checker's and the runtime's workers (idempotent)."""
+        self.checker.close()
+        for o in self._owned:
+            o.close()
+        self._owned = []
+
+    def __enter__(self) -> Monitor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------------------------------------
+    def _select_views(self, obs: Observation) -> Observation:
+        if self.cameras is None:
+            return obs
+        missing = [c for c in self.cameras if c not in obs.views]
+        if missing:
+            raise ObservationError(f"observation at t={obs.t} has no view {missing[0]!r}; it has {sorted(obs.views)}")
+        return replace(obs, views={c: obs.views[c] for c in self.cameras})
+
+    def _plan(self, obs: Observation, kind: DecisionKind, halt: bool, ended: SubgoalRecord | None) -> Decision:
+        """Plan subgoals on ``obs`` until one starts (or the episode ends)."""
+        ep = self.episode
+        while True:
+            if self._index >= self.max_subgoals:
+                ep.stop_reason = f"subgoal bound ({self.max_subgoals}) reached"
+                return self._over(obs.t, halt=halt, ended=ended)
+            if self._ctx.out_of_time(obs.t):
+                ep.stop_reason = "time limit"
+                return self._over(obs.t, halt=halt, ended=ended)
+            images = {n: v.rgb for n, v in obs.views.items()}
+            try:
+                subgoal = self.planner.next_subgoal(ep.instruction, images, obs.objects, self._previous,
+                                                    self._feedback)
+            except VLMError as exc:
+                ep.stop_reason = f"planner failed: {exc}"
+                ep.error = str(exc)
+                self.emit("planner_error", t=obs.t, error=str(exc))
+                return self._over(obs.t, halt=halt, ended=ended)
+            if subgoal.done:
+                ep.finished = True
+                ep.stop_reason = "planner: task complete"
+                self.emit("task_complete", t=obs.t)
+                return self._over(obs.t, halt=halt, ended=ended, kind=DecisionKind.TASK_DONE)
+            self.emit("subgoal", t=obs.t, index=self._index, subgoal=subgoal.to_dict())
+            self._subgoal = subgoal
+            self._t0 = obs.t
+            early = self.checker.begin(self._index, subgoal, obs, self._ctx)
+            if early is not None:
+                ended = self._end_subgoal(early, obs.t)
+                kind = DecisionKind.SUBGOAL_FAILED
+                if self._state == "over":
+                    return self._over(obs.t, halt=halt, ended=ended)
+                continue
+            self._state = "run"
+            self.emit("policy_start", t=obs.t, action=subgoal.action.to_dict() if subgoal.action else None)
+            return Decision(kind, obs.t, halt=halt, action=subgoal.action, subgoal=subgoal,
+                            violations=list(self._frame_alarms), ended=ended,
+                            reason=ended.reason if ended is not None else "")
+
+    def _end_subgoal(self, end: SubgoalEnd, t: float) -> SubgoalRecord:
+        """Record the subgoal's outcome and turn it into feedback; may end the episode."""
+        sg = self._subgoal
+        assert sg is not None
+        ep = self.episode
+        record = SubgoalRecord(sg.text, sg.action.skill if sg.action else "", end.outcome, end.reason,
+                               self._t0, t, end.code_attempts)
+        ep.subgoals.append(record)
+        self.emit("subgoal_end", t=t, **record.to_dict())
+        self._previous = sg
+        self._index += 1
+        self._state = "plan"
+        if record.outcome == "success":
+            self._feedback = SUCCESS_FEEDBACK  # the planner's success token; the reasons are in the log
+        else:
+            self._feedback = f"failure: {record.reason}"
+            ep.replans += 1
+            if ep.replans > self.max_replans:
+                ep.stop_reason = f"too many re-plans ({ep.replans})"
+                self._state = "over"
+                return record
+        if record.outcome == "timeout":
+            ep.stop_reason = "time limit"
+            self._state = "over"
+        return record
+
+    def _over(self, t: float, halt: bool, ended: SubgoalRecord | None,
+              kind: DecisionKind = DecisionKind.STOPPED) -> Decision:
+        ep = self.episode
+        self._state = "over"
+        ep.t_end = t
+        self.emit("episode_end", t=t, finished=ep.finished, stop_reason=ep.stop_reason, replans=ep.replans)
+        return Decision(kind, t, halt=halt, violations=list(self._frame_alarms), ended=ended, reason=ep.stop_reason)
+
+
+__all__ = ["Monitor", "MonitorContext", "SubgoalChecker", "SubgoalEnd"]

@@ -1,0 +1,79 @@
+"""Tasks take their goal from the instruction: tower order and count band, success check and plan follow it."""
+
+from __future__ import annotations
+
+import pybullet as pb
+import pytest
+
+from code_as_monitor.core.errors import ConfigError, InstructionError
+from code_as_monitor.sim import make_env
+from code_as_monitor.sim.env import make_task
+
+REVERSED = "stack red on top of green on top of blue"
+
+
+def _place(env, name, xyz):
+    pb.resetBasePositionAndOrientation(env.world.body_of(name), xyz, [0, 0, 0, 1], physicsClientId=env.world.client)
+
+
+def _build(env, order):
+    for level, name in enumerate(order):
+        _place(env, name, [0.5, 0.0, 0.02 + 0.04 * level])
+    env.world.idle(1.0)
+
+
+def test_the_instruction_sets_the_tower_order_plan_and_success_check():
+    with make_env("stack-in-order", seed=0, instruction=REVERSED) as env:
+        assert env.instruction == REVERSED and env.task.config.order == ("blue_block", "green_block", "red_block")
+        assert [(a.skill, a.args.get("obj"), a.args.get("target")) for a in env.plan] == [
+            ("pick", "green_block", None), ("place_on", "green_block", "blue_block"),
+            ("pick", "red_block", None), ("place_on", "red_block", "green_block")]
+        _build(env, ("red_block", "green_block", "blue_block"))  # the default tower is now a failure
+        assert not env.evaluate().success
+        _build(env, ("blue_block", "green_block", "red_block"))
+        assert env.evaluate().success
+
+
+def test_a_two_block_tower_and_any_order():
+    task = make_task("stack-in-order", instruction="put the blue block on the red block")
+    assert task.config.order == ("red_block", "blue_block") and len(task.default_plan()) == 2
+    with make_env("stack-in-order", seed=1, instruction="stack the blocks in any order") as env:
+        assert env.task.config.any_order
+        _build(env, ("green_block", "blue_block", "red_block"))
+        assert env.evaluate().success
+
+
+def test_the_instruction_sets_the_sweep_band():
+    task = make_task("sweep-half", instruction="push 10 blocks into the zone")
+    assert (task.config.min_in_zone, task.config.max_in_zone) == (9, 11)
+    task = make_task("sweep-half", instruction="sweep all the blocks into the zone")
+    assert (task.config.min_in_zone, task.config.max_in_zone) == (36, 40)
+    default = make_task("sweep-half")
+    assert default.instruction == "sweep half of the blocks into the zone"
+    banded = make_task("sweep-half", min_in_zone=6, max_in_zone=10)
+    again = make_task("sweep-half", instruction=banded.instruction)  # the text reads back to the same band
+    assert (again.config.min_in_zone, again.config.max_in_zone) == (6, 10)
+
+
+def test_parameters_without_an_instruction_give_an_instruction_that_reads_back():
+    for order in (("blue_block", "red_block", "green_block"), ("green_block", "red_block")):
+        task = make_task("stack-in-order", order=order)
+        assert make_task("stack-in-order", instruction=task.instruction).config.order == order
+
+
+@pytest.mark.parametrize("task,instruction,error,match", [
+    ("stack-in-order", "push 10 blocks into the zone", InstructionError, "sweep-half instruction"),
+    ("slot-pen", "stack red on green", InstructionError, "stack-in-order instruction"),
+    ("stack-in-order", "stack the yellow block on the red block", InstructionError, "no yellow block"),
+    ("sweep-half", "push 50 blocks into the zone", InstructionError, "40 blocks"),
+])
+def test_an_instruction_the_task_cannot_take_is_an_error_before_anything_runs(task, instruction, error, match):
+    with pytest.raises(error, match=match):
+        make_task(task, instruction=instruction)
+
+
+def test_a_parameter_contradicting_the_instruction_is_a_config_error():
+    with pytest.raises(ConfigError, match="contradicts the instruction"):
+        make_task("stack-in-order", instruction=REVERSED, order=["red_block", "green_block"])
+    with pytest.raises(ConfigError, match="two or three different blocks"):
+        make_task("stack-in-order", order=["red_block", "red_block"])
