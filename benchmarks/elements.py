@@ -1,13 +1,18 @@
-"""Benchmark: build the elements of one constraint from two 640x480 RGB-D views.
+"""Benchmark: build constraint elements from RGB-D views.
 
-The constraint involves the synthetic scene's box (a point), plate (a surface) and rod (a line); their
-masks together cover about 5 % of each image. Depth carries 2 mm noise and 1 % outlier pixels.
-Timed: back-projection, fusion, downsampling, outlier removal, DBSCAN and fitting of all three
-elements (rendering and segmentation are not). Reference, measured in the same run: plain
-back-projection of the same masks alone.
+1. One constraint's three elements from two 640x480 views of the synthetic scene: the box (a point), the
+   plate (a surface) and the rod (a line); their masks cover about 5 % of each image; depth carries 2 mm noise
+   and 1 % outlier pixels. Timed: back-projection, fusion, downsampling, outlier removal, clustering, the box
+   fit and carving of all three (rendering and segmentation are not). Reference, measured in the same run:
+   plain back-projection of the same masks alone.
+2. The painter on a whole subgoal: sweep-half's 41 elements (the zone's surface and 40 small blocks' points)
+   from the simulator's two 320x240 default views, ``sim`` segmenter masks. Timed: ``Painter.paint`` (segment
+   every view, lift, fit, draw). Reference in the same run: lifting both views' depth images once.
 
-Run: ``.venv/bin/python benchmarks/elements.py [--runs N]``. The last two lines are machine-readable:
-``elements_build_median: <ms> ms`` and ``elements_peak_mem: <MiB> MiB``.
+The machine is shared: compare the ratios, not the absolute times, across runs.
+Run: ``.venv/bin/python benchmarks/elements.py [--runs N]``. The last lines are machine-readable:
+``elements_build_median: <ms> ms``, ``elements_peak_mem: <MiB> MiB`` and
+``painter_per_subgoal_41_median: <ms> ms``.
 """
 
 from __future__ import annotations
@@ -80,9 +85,32 @@ def main(argv: list[str] | None = None) -> int:
     print(f"reference backproject_only_median: {ref_ms:.2f} ms")
     print(f"ratio build/backproject: {build_ms / ref_ms:.1f}x")
     print(f"process ru_maxrss: {rss_mib:.1f} MiB")
+    sub_ms, lift_ms, n_el = _painter_41(max(5, runs // 3))
+    print(f"painter: {n_el} elements per subgoal; reference lift_both_views_median: {lift_ms:.2f} ms; "
+          f"ratio paint/lift: {sub_ms / lift_ms:.0f}x")
     print(f"elements_build_median: {build_ms:.1f} ms")
     print(f"elements_peak_mem: {peak / (1024.0 * 1024.0):.1f} MiB")
+    print(f"painter_per_subgoal_41_median: {sub_ms:.1f} ms")
     return 0
+
+
+def _painter_41(runs: int) -> tuple[float, float, int]:
+    """(paint median ms, lift-both-views median ms, elements) for sweep-half's subgoal on the sim's views."""
+    from code_as_monitor.core import Constraint, Subgoal
+    from code_as_monitor.geometry import lift_depth
+    from code_as_monitor.painter import Painter
+    from code_as_monitor.perception import SegmenterConfig, make_segmenter
+    from code_as_monitor.sim.env import make_env
+
+    with make_env("sweep-half", seed=0, disturbed=False) as env:
+        obs = env.world.observe()
+        blocks = [n for n in env.world.objects if n not in ("table", "zone")]
+    specs = [ElementSpec("zone", "zone", "surface", ElementKind.SURFACE)] + [ElementSpec(b, b) for b in blocks]
+    sub = Subgoal("sweep", [Constraint("in_zone", "blocks in the zone", "upon", specs)])
+    painter = Painter(make_segmenter(SegmenterConfig.from_name("sim")))
+    ms = _median_ms(lambda: painter.paint(obs, sub), runs, warmup=1)
+    ref = _median_ms(lambda: [lift_depth(v.depth, v.camera) for v in obs.views.values()], runs, warmup=1)
+    return ms, ref, len(painter.paint(obs, sub).elements)
 
 
 if __name__ == "__main__":

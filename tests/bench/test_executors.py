@@ -18,7 +18,7 @@ from code_as_monitor.core.errors import ConfigError
 
 pytest.importorskip("pybullet")
 
-VOLATILE = ("wall_time_s", "cpu_time_s", "finished_at", "video")
+VOLATILE = ("wall_time_s", "cpu_time_s", "finished_at", "video", "reproduce")  # reproduce names the results file
 
 
 def _records(path) -> dict:

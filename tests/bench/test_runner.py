@@ -35,7 +35,7 @@ def _episodes(path) -> list[dict]:
 
 
 def _strip(r: dict) -> dict:
-    return {k: v for k, v in r.items() if k not in ("wall_time_s", "cpu_time_s", "finished_at")}
+    return {k: v for k, v in r.items() if k not in ("wall_time_s", "cpu_time_s", "finished_at", "reproduce")}
 
 
 def test_resume_after_a_killed_run_loses_and_repeats_nothing(tmp_path):

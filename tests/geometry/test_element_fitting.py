@@ -1,11 +1,10 @@
 """The element pipeline on the analytic scene (2 mm depth noise, 1 % outlier pixels), over seeds.
 
 Ground truth (see ``code_as_monitor.geometry.synthetic``):
-- a point on a flat, fully visible, symmetric part (the box top, the plate surface) is the face
-  centre: the centroid of the visible surface;
+- a point of a solid (the box, the rod) is its centre;
 - a line is the rod's axis (cap centre to cap centre), judged by direction and ends;
 - a surface is the face's plane (normal) and corners.
-Tolerances: 5 mm for points, 3 degrees for directions and normals.
+Tolerances: 8 mm for points (the issue's target for any point element), 3 degrees for directions and normals.
 """
 
 from __future__ import annotations
@@ -34,35 +33,18 @@ def _area(poly: np.ndarray, n: np.ndarray) -> float:
 
 
 @pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize(("obj", "part"), [("box", "top"), ("plate", "surface")])
-def test_point_of_a_face_within_5mm(
-    scene: SyntheticScene, noisy_views: Callable[[int], list[View]], seed: int, obj: str, part: str
-) -> None:
-    spec = ElementSpec(f"{obj} {part}", obj, part, ElementKind.POINT)
-    e = _build(noisy_views(seed), spec, id=3)
-    assert e.points.shape == (1, 3)
-    assert e.owner == (obj, part) and e.id == 3 and e.name == spec.name
-    assert np.linalg.norm(e.points[0] - scene.truth(spec)[0]) < 0.005
-
-
-@pytest.mark.parametrize("seed", SEEDS)
-def test_point_of_a_solid_lies_on_its_visible_surface(
+def test_point_of_a_solid_is_its_centre(
     scene: SyntheticScene, noisy_views: Callable[[int], list[View]], seed: int
 ) -> None:
-    """A whole box as a point: the cloud point nearest the centroid of its visible surface.
-
-    That centroid is inside the box, so the element lies on a visible face, as close to it as the
-    surface allows: within 5 mm of the box surface, and no further from the noise-free visible
-    centroid than the nearest noise-free visible point is, plus 5 mm.
-    """
-    e = _build(noisy_views(seed), ElementSpec("box", "box"))
+    """A whole box on the table as a point: its centre, not the centroid of its visible skin (which lies about
+    half the box, 4 cm here, towards the cameras). Tolerance: the issue's 8 mm target for any point element."""
+    e = _build(noisy_views(seed), ElementSpec("box", "box"), id=3)
+    assert e.points.shape == (1, 3) and e.owner == ("box", "") and e.id == 3
     box = scene.object("box").shape
-    local = np.abs((e.points[0] - box.center) @ box.R)
-    assert np.abs(local - box.half).min() < 0.005 and (local < box.half + 0.005).all()
-    clean = _build_cloud(scene, "box")
-    c = clean.mean(axis=0)
-    nearest = np.linalg.norm(clean - c, axis=1).min()
-    assert np.linalg.norm(e.points[0] - c) <= nearest + 0.005
+    assert np.linalg.norm(e.points[0] - box.center) < 0.008
+    skin = _build_cloud(scene, "box").mean(axis=0)
+    assert np.linalg.norm(skin - box.center) > 0.008  # a skin centroid would fail this test
+    assert e.support.views == 2 and e.support.points > 100 and e.support.residual < 0.005
 
 
 def _build_cloud(scene: SyntheticScene, obj: str) -> np.ndarray:
@@ -79,8 +61,8 @@ def test_rod_point_is_on_the_rod_near_its_centre(
 ) -> None:
     spec = ElementSpec("rod", "rod", "", ElementKind.POINT)
     e = _build(noisy_views(seed), spec)
-    # truth is the axis centre; a surface point is ROD_RADIUS from it
-    assert np.linalg.norm(e.points[0] - scene.truth(spec)[0]) < ROD_RADIUS + 0.005
+    # truth is the axis centre (a point on the rod's surface would be ROD_RADIUS from it)
+    assert np.linalg.norm(e.points[0] - scene.truth(spec)[0]) < 0.008
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -129,10 +111,12 @@ def test_elements_of_standard_specs_are_numbered_and_coloured(noisy_views: Calla
 def test_a_view_that_does_not_see_the_part_is_skipped(
     scene: SyntheticScene, noisy_views: Callable[[int], list[View]]
 ) -> None:
+    """An empty mask adds no points; its depth still says where the part is not (8 mm: the point target)."""
     views = noisy_views(1)
-    spec = ElementSpec("box top", "box", "top", ElementKind.POINT)
+    spec = ElementSpec("box", "box", "", ElementKind.POINT)
     v0 = views[0]
     obs = [(np.zeros_like(v0.depth, dtype=bool), v0.depth, v0.camera)]
-    obs += [(v.mask_of("box", "top"), v.depth, v.camera) for v in views[1:]]
+    obs += [(v.mask_of("box"), v.depth, v.camera) for v in views[1:]]
     e = build_element(0, spec, obs)
-    assert np.linalg.norm(e.points[0] - scene.truth(spec)[0]) < 0.005
+    assert e.support.views == 1
+    assert np.linalg.norm(e.points[0] - scene.object("box").shape.center) < 0.008

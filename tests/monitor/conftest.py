@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -29,21 +27,3 @@ def sandbox():
     with Sandbox(deadline_s=0.15) as sb:
         yield sb
 
-
-def process_state(pid: int) -> str | None:
-    """The state letter of a process (R, S, Z ...) or None when it no longer exists."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0]
-    except (FileNotFoundError, ProcessLookupError):
-        return None
-
-
-def wait_gone(pid: int, timeout: float = 5.0) -> bool:
-    """True once ``pid`` has exited (gone or a zombie) within ``timeout`` seconds."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if process_state(pid) in (None, "Z", "X"):
-            return True
-        time.sleep(0.01)
-    return False

@@ -82,7 +82,7 @@ def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
     report = _run(GOOD, constraints, scene, sandbox)
     assert report.ok and report.fraction == 1.0
     assert report.covered == {b.id for b in report.branches}
-    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2  # state, 96 perturbations, surface turns, 2 meetings
+    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2 + 2  # state, 96 perturbations, turns, 2 meetings, 2 placements
     assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
 
 
@@ -136,7 +136,7 @@ def test_overrun_on_a_branch_stops_early(constraints, scene):
 
 def test_factory_and_rejection_before_running(constraints, scene):
     report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=32)
-    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2
+    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2  # and 2 meetings, 2 placements of 2 elements
     with pytest.raises(ProgramError, match="'while'"):
         _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
 
@@ -145,7 +145,7 @@ def test_probes_are_consistent_and_deterministic(scene):
     H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
     Ht = np.linspace(0.0, 0.4, 5)
     probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
-    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 and probes[0].description.startswith("the current state")
+    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 + 2 and probes[0].description.startswith("the current state")
     assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
     for p in probes:
         T = len(p.history_t)
@@ -167,6 +167,12 @@ def test_probes_are_consistent_and_deterministic(scene):
         a = int(p.description.split()[1])
         np.testing.assert_allclose(p.history[a][0], scene[a], atol=1e-12)  # it began where it was
         assert np.linalg.norm(p.elements[a].mean(axis=0)[:2] - p.elements[1 - a].mean(axis=0)[:2]) < 1e-9
+    placed = [p for p in probes if "placed" in p.description]
+    assert len(placed) == 2  # element 0 above element 1 and element 1 above element 0
+    for p, (i, j) in zip(placed, [(0, 1), (1, 0)]):
+        np.testing.assert_allclose(p.elements[i].mean(axis=0)[:2], scene[j].mean(axis=0)[:2], atol=1e-12)
+        gap = p.elements[i][:, 2].min() - scene[j][:, 2].max()
+        assert 0.01 <= gap <= 0.06
 
 
 def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints):
@@ -174,3 +180,34 @@ def test_instrumentation_is_deterministic_and_marker_is_unspellable(constraints)
     assert instrument(tree)[1] == instrument(validate_program(ELIF_AND_TERNARY, constraints))[1]
     with pytest.raises(ProgramError, match="__cam_cov__"):
         validate_program(GOOD.replace('"block attached"', '__cam_cov__(0, "x")'), constraints)
+
+
+ALWAYS_TRUE = _a('''
+d = distance(E[0], E[1])
+if d >= 0.0:
+    return True, f"attached ({d:.3f} m)"
+return False, "detached"
+''')
+
+NEVER_TRUE = '''
+def check_a(E, H, t):
+    return distance(E[0], E[1]) < 0.05, "attached"
+
+
+def check_b(E, H, t):
+    h = E[1][:, 2].mean()
+    return bool(h > 100.0), f"block at {h:.2f} m"
+'''
+
+
+def test_a_check_that_can_never_fail_or_never_hold_is_rejected(sandbox, constraints, scene):
+    with pytest.raises(CoverageError) as err:
+        _run(ALWAYS_TRUE, constraints, scene, sandbox)
+    report = err.value.report
+    assert report.outcomes["check_a"][1] == 0 and report.outcomes["check_a"][0] == report.n_inputs
+    assert "check_a: returned True on all" in str(err.value) and "never report a violation" in str(err.value)
+    assert "check_a, line 3: the 'if' condition is never false" in str(err.value)  # also listed
+    with pytest.raises(CoverageError) as err:
+        _run(NEVER_TRUE, constraints, scene, sandbox)
+    assert "check_b: returned False on all" in str(err.value) and "never be satisfied" in str(err.value)
+    assert "check_a" not in str(err.value).split("never changes")[1]

@@ -9,15 +9,12 @@ import time
 
 import numpy as np
 import pytest
-from conftest import wait_gone
 from hostile_programs import GOOD
+from hostutil import SLACK_S, wait_gone
 
 from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.core.errors import ProgramError, SandboxError
 from code_as_monitor.monitor.sandbox import Sandbox
-
-SLACK_S = 1.0
-"""Generous bound on the time past a deadline (a loaded 2-core machine): a containment check, not speed."""
 
 HISTORY = '''
 def check_a(E, H, t):
@@ -79,10 +76,15 @@ def test_deadline_kills_replaces_and_never_blocks(constraints, scene):
         assert all(v.fault and "deadline 30 ms exceeded" in v.reason for v in verdicts)
         assert sb.worker_pid != pid and sb.n_restarts == 1
         assert wait_gone(pid)  # the overrunning worker is dead (a zombie until collected)
-        verdicts = sb.evaluate(scene, None, None, 0.2)  # the replacement may still be starting
-        assert all(v.fault for v in verdicts) or [v.ok for v in verdicts] == [True, True]
-        sb.start()  # the replacement comes up with the same program
-        verdicts = sb.evaluate(scene, None, None, 0.3)
+        end = time.monotonic() + 60.0
+        while time.monotonic() < end:  # the replacement comes up with the same program, in the background,
+            t0 = time.perf_counter()  # while every frame is answered at once
+            verdicts = sb.evaluate(scene, None, None, 0.3)
+            assert time.perf_counter() - t0 < 0.03 + SLACK_S
+            if not verdicts[0].fault:
+                break
+            assert all(v.fault and "restarting" in v.reason for v in verdicts), verdicts
+            time.sleep(0.01)
         assert [v.ok for v in verdicts] == [True, True] and not any(v.fault for v in verdicts)
 
 

@@ -118,7 +118,7 @@ def test_cam_plan_against_llama_cpp_gives_a_valid_plan_or_one_line_error(llama_s
     records = [json.loads(line) for line in cassette.read_text().splitlines()] if cassette.exists() else []
     for rec in records:
         asked = rec["request"].get("schema") is not None
-        print(f"  call: schema sent {asked}, {rec['response']['prompt_tokens']} prompt + "
+        print(f"  call: schema given by the caller {asked}, {rec['response']['prompt_tokens']} prompt + "
               f"{rec['response']['completion_tokens']} completion tokens")
     if rc == 0:
         # the accepted answer is schema-valid (not necessarily right: the model has 135M parameters)

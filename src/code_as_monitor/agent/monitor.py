@@ -110,7 +110,8 @@ class MonitorContext:
     def alarm(self, subgoal: Subgoal, constraint_id: str, phase: str, reason: str, t: float) -> Alarm:
         """Record and emit an alarm on ``constraint_id`` (proactive when its constraint is)."""
         c = next((c for c in subgoal.constraints if c.id == constraint_id), None)
-        a = Alarm(t, constraint_id, phase, bool(c and c.proactive), reason, subgoal.text)
+        objects = sorted({p.obj for p in c.parts}) if c is not None else []
+        a = Alarm(t, constraint_id, phase, bool(c and c.proactive), reason, subgoal.text, objects)
         self._m.episode.alarms.append(a)
         self._m._frame_alarms.append(a)
         self.emit("alarm", **a.to_dict())

@@ -27,6 +27,8 @@ class Alarm:
         constraint_id, phase, proactive: the violated check (``phase`` is ``"during"`` or ``"upon"``).
         reason: the check's reason string.
         subgoal: the text of the subgoal it belonged to.
+        objects: the objects the violated constraint is about (the owners of its elements, ``robot`` included):
+            what the benchmark matches against a ground-truth failure's object.
     """
 
     t: float
@@ -35,6 +37,7 @@ class Alarm:
     proactive: bool
     reason: str
     subgoal: str
+    objects: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return dict(self.__dict__)

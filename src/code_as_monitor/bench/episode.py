@@ -25,10 +25,14 @@ from code_as_monitor.core.errors import ConfigError
 log = logging.getLogger(__name__)
 
 RECORD_VERSION = 1
+BENCH_DEADLINE_S = 0.5
+"""CaM's per-frame sandbox deadline in benchmark episodes, seconds (see ``EpisodeOptions.deadline_s``)."""
 OPEN_LOOP_VIDEO_HZ = 2.0
-GT_KINDS = ("drop", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
+GT_KINDS = ("drop", "regrasped", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
             "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone")
 """Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
+GT_KEYS = ("count", "target", "on", "on_target", "target_offset")
+"""Kind-specific keys kept with them: what the detection metrics read (a drop's target, where it landed)."""
 
 
 @dataclass
@@ -42,6 +46,10 @@ class EpisodeOptions:
         segmenter, tracker: CaM's perception choices.
         camera_hz: CaM's monitoring rate (frames per second of sim time).
         counterfactual: run counterfactual rollouts at proactive alarms; ``horizon_s`` their length.
+        deadline_s: CaM's per-frame sandbox deadline, seconds. Larger than a robot's real-time budget (20 ms,
+            ``MonitorConfig``'s default): simulated time waits for the monitor, and a wall-clock budget that
+            frames overrun only when the machine is busy would make results depend on its load. A frame that
+            still overruns is a fault, as on a robot.
     """
 
     backend: str = "kb"
@@ -52,10 +60,11 @@ class EpisodeOptions:
     camera_hz: float = 10.0
     counterfactual: bool = True
     horizon_s: float = DEFAULT_HORIZON_S
+    deadline_s: float = BENCH_DEADLINE_S
 
     def __post_init__(self) -> None:
         check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
-        for name in ("doremi_k_s", "camera_hz", "horizon_s"):
+        for name in ("doremi_k_s", "camera_hz", "horizon_s", "deadline_s"):
             check_positive("EpisodeOptions", name, getattr(self, name))
         if not isinstance(self.backend_options, dict):
             raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
@@ -69,8 +78,9 @@ def _compact_gt(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for e in events:
         if e["kind"] in GT_KINDS:
             c = {"t": e["t"], "kind": e["kind"], "obj": e.get("obj", "")}
-            if "count" in e:
-                c["count"] = e["count"]
+            for k in GT_KEYS:
+                if k in e:
+                    c[k] = e[k]
             out.append(c)
     return out
 
@@ -99,7 +109,8 @@ def _alarms(alarms: list[dict[str, Any]], cfs: list[dict[str, Any] | None]) -> l
     out = []
     for i, a in enumerate(alarms):
         d = {"t": round(float(a["t"]), 3), "constraint_id": a["constraint_id"], "phase": a["phase"],
-             "proactive": bool(a["proactive"]), "reason": str(a["reason"])[:160]}
+             "proactive": bool(a["proactive"]), "reason": str(a["reason"])[:160],
+             "objects": list(a.get("objects", []))}
         if i < len(cfs) and cfs[i] is not None:
             d["cf"] = cfs[i]
         out.append(d)
@@ -112,7 +123,7 @@ def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
 
     cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend,
                            backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
-                           camera_hz=opts.camera_hz, video=run_dir is not None)
+                           camera_hz=opts.camera_hz, video=run_dir is not None, deadline_s=opts.deadline_s)
     s = run_closed_loop(cfg, run_dir, on_event=cfs, on_env=cfs.set_env)
     ep = s["episode"]
     return {"success": s["success"], "reason": s["reason"], "sim_time_s": s["sim_time_s"],
@@ -209,6 +220,10 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
                            "episode": job.episode, "episode_seed": seed, "task": cond.task,
                            "undisturbed": cond.undisturbed}
+    if job.method == "cam":
+        from code_as_monitor.bench.reproduce import run_command
+
+        rec["run"] = run_command(cond.task, seed, dict(cond.params), opts.to_dict())
     if video_dir is not None:
         video_dir.mkdir(parents=True, exist_ok=True)
     try:

@@ -8,9 +8,10 @@ Results file lines (``kind`` first):
   flushed as soon as it finishes (``finished_at``: epoch seconds);
 - ``{"kind": "bench_end", "wall_s": ..., "episodes": n}`` when a session completes.
 
-Every episode record carries ``code``, the version of the code that made it (package version +
-content hash of the package, see ``bench.results_file``); ``bench_start`` also records ``git`` (``git
-describe``) and the writer's ``pid``.
+Every episode record carries ``reproduce``, the ``cam reproduce`` command that re-runs it (CaM records
+also ``run``, the equivalent ``cam run``; see ``bench.reproduce``), and ``code``, the version of the code
+that made it (package version + content hash of the package, see ``bench.results_file``); ``bench_start``
+also records ``git`` (``git describe``) and the writer's ``pid``.
 
 Resume: episodes whose key (condition, method, seed, episode) is already in the file without an
 ``error`` and made by the current code version are skipped; errored ones and ones made by another
@@ -32,6 +33,7 @@ from typing import Any
 from code_as_monitor.bench.episode import EpisodeOptions, run_episode
 from code_as_monitor.bench.executors import ExecutorConfig, LocalExecutorConfig, run_tasks
 from code_as_monitor.bench.protocol import BenchSpec, Job
+from code_as_monitor.bench.reproduce import reproduce_command
 from code_as_monitor.bench.results_file import ResultsLock, code_version, git_describe, record_versions
 from code_as_monitor.core.errors import ConfigError, RunError
 from code_as_monitor.core.run_io import EventLog, new_run_dir, read_jsonl
@@ -160,7 +162,8 @@ def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | N
                       code_version=version, git=git_describe(), pid=os.getpid())
             tasks = [(j, opts, _sample_dir(rdir, Path(results), j)) for j in jobs]
             for job, rec in run_tasks(executor, run_episode, tasks):
-                log.write("episode", **rec, code=version, finished_at=round(time.time(), 1))
+                log.write("episode", **rec, code=version, finished_at=round(time.time(), 1),
+                          reproduce=reproduce_command(results, rec))
                 ran += 1
                 if on_result is not None:
                     on_result(job, rec, ran, len(jobs))

@@ -29,6 +29,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "plan_cmd",
     "bench_cmd",
     "report_cmd",
+    "reproduce_cmd",
 )
 
 

@@ -33,19 +33,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _parse_set(items: list[str]) -> dict:
-    out = {}
-    for item in items:
-        key, sep, val = item.partition("=")
-        if not sep or not key:
-            raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
-        try:
-            out[key] = json.loads(val)
-        except json.JSONDecodeError:
-            out[key] = val
-    return out
-
-
 def list_tasks() -> str:
     import dataclasses
 
@@ -73,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     from code_as_monitor.sim.tasks.base import TaskConfig
     from code_as_monitor.sim.world import WorldConfig
 
-    cfg = _parse_set(args.set)
+    cfg = v.parse_settings(args.set)
     if args.p is not None:
         cfg["p"] = args.p
     if args.q is not None:

@@ -230,6 +230,21 @@ new_file: ArgType = _path_type("new_file", check_new_file)
 results_file: ArgType = _path_type("results_file", check_results_file)
 
 
+def parse_settings(items: list[str], flag: str = "--set") -> dict[str, Any]:
+    """``KEY=VALUE`` items -> {key: value}, VALUE parsed as JSON, else kept as a string; ConfigError naming a
+    malformed item."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, val = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"{flag} expects KEY=VALUE, got {item!r}")
+        try:
+            out[key.strip()] = json.loads(val)
+        except json.JSONDecodeError:
+            out[key.strip()] = val
+    return out
+
+
 def check_namespace(args: argparse.Namespace) -> None:
     """The net under every command: no parsed float is NaN or inf, no path holds a NUL byte."""
     for key, val in vars(args).items():

@@ -90,8 +90,10 @@ class ElementSupport:
         residual: metres; RMS distance of those points to the fitted model (which model depends on the
             kind: see :mod:`code_as_monitor.geometry.elements`), i.e. how well the model explains them.
         spread: metres; half the largest extent of the cloud (how big the part looked).
-        extent: (3,) metres; the part's fitted size along its own axes (largest first); a size that is
-            not observed (a face no view sees) is the best estimate the fit could make.
+        extent: (3,) metres; the part's fitted size along its own axes (largest first).
+        assumed: how many sides of the part's box no view bounded: their depth is an assumption (the part's
+            largest observed extent), not a measurement (a block under another one seen from the front only).
+        part_seen: False when no view saw the element's part and the whole object's masks stood in for it.
     """
 
     points: int
@@ -99,21 +101,25 @@ class ElementSupport:
     residual: float
     spread: float = 0.0
     extent: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    assumed: int = 0
+    part_seen: bool = True
 
     def to_dict(self) -> dict:
         return {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
-                "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent]}
+                "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent],
+                "assumed": self.assumed, "part_seen": self.part_seen}
 
     @classmethod
     def from_dict(cls, d: dict) -> ElementSupport:
         ext = tuple(float(x) for x in d.get("extent", (0.0, 0.0, 0.0)))
         return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
-                   (ext[0], ext[1], ext[2]))
+                   (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)))
 
     def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004) -> bool:
-        """True when fewer than ``min_points`` points or ``min_views`` views supported the element, or its
-        fit residual exceeds ``max_residual`` metres."""
-        return self.points < min_points or self.views < min_views or self.residual > max_residual
+        """True when fewer than ``min_points`` points or ``min_views`` views supported the element, its fit
+        residual exceeds ``max_residual`` metres, a side of its box was assumed, or its part was not seen."""
+        return (self.points < min_points or self.views < min_views or self.residual > max_residual
+                or self.assumed > 0 or not self.part_seen)
 
 
 @dataclass

@@ -100,6 +100,28 @@ def backproject_mask(
     return _lift(cols[ok].astype(np.float64), rows[ok].astype(np.float64), z[ok], camera)
 
 
+def lift_depth(
+    depth: np.ndarray, camera: CameraModel, max_depth: float = DEFAULT_MAX_DEPTH
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel lifted at once: ``(points (H, W, 3) world metres, valid (H, W) bool)``; invalid pixels hold 0.
+
+    The painter lifts each view once and takes every element's points from it (``points[mask & valid]``).
+
+    Raises:
+        ShapeMismatchError: depth does not match the camera.
+    """
+    depth = check_depth(depth, camera)
+    if max_depth <= 0:
+        raise GeometryError(f"max_depth must be > 0, got {max_depth!r}")
+    valid = valid_depth(depth, max_depth)
+    out = np.zeros((*depth.shape, 3))
+    rows, cols = np.nonzero(valid)
+    if len(rows):
+        z = depth[rows, cols].astype(np.float64)
+        out[rows, cols] = _lift(cols.astype(np.float64), rows.astype(np.float64), z, camera)
+    return out, valid
+
+
 def sample_depth(uv: np.ndarray, depth: np.ndarray, max_depth: float = DEFAULT_MAX_DEPTH) -> np.ndarray:
     """Robust depth (N,) at pixels ``uv`` (N, 2): median of the valid readings in the 3x3 neighbourhood
     of the rounded pixel; NaN where the pixel is outside the image or no neighbour is valid."""

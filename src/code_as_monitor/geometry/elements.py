@@ -1,31 +1,28 @@
-"""Constraint elements from masks and depth: the paper's element pipeline (Sec. 3.2 and Supp.).
+"""Constraint elements from masks and depth: elements that stand for the object, not its visible skin.
 
 Pipeline of :func:`build_element` (all clouds (N, 3), world frame, metres):
 
-1. back-project every view's mask with its depth (:func:`~.backproject.backproject_mask`) and fuse;
-2. voxel-downsample on a fine grid (``fine_voxel_size``: 4 mm, coarser for big parts) so that every
-   later stage sees an evenly spread cloud of bounded size, whatever the image resolution;
-3. statistical outlier removal (:func:`~.fusion.remove_outliers`);
-4. :func:`fit_element_points`: DBSCAN drops the sparse points that survived and splits off debris,
-   then the occupied space is divided into element voxels whose size is set by the element kind
-   (:data:`VOXEL_DIVISIONS`: 1 voxel for a point, 2 along the principal axis for a line, 2 x 2 over
-   the fitted plane for a surface, as in the paper), one representative is picked per voxel and the
-   representatives are filtered to the count the kind needs:
+1. the part's cloud over all views (:mod:`~.part_cloud`: lift, fuse, downsample, filter, dense clusters);
+2. an oriented box fitted to it, its hidden sides carved through the space no view sees
+   (:mod:`~.solid`: a face's normal and a second face or the outline give the axes; the visible faces give the
+   extents; a side no view sees past grows until a view sees past it or it meets another surface or the
+   support plane);
+3. the element points from the box, by kind (paper Sec. 3.2: a point, 2 points for a line, 3-4 for a surface):
 
-   - point (1): the cloud point nearest the robust centroid (the mean of the DBSCAN clusters);
-   - line (2): the two ends along the principal axis, placed on the fitted axis;
-   - surface (3-4): per 2 x 2 voxel the point furthest towards that voxel's outer corner, projected
-     on the fitted plane, in boundary order (counter-clockwise seen from the normal's side, and the
-     normal is oriented to have z >= 0, as :func:`~.helpers.normal` does).
+   - point (1): the box centre (a solid's centre, a bar's centre, a rim's centre);
+   - line (2): the box's longest axis through the centre, from end to end, oriented so that its
+     largest-magnitude component is positive;
+   - surface (4): the plane through the centre across the box's thinnest observed axis (the part keeps its
+     observed thickness: a surface's plane is the middle of what is seen of it); its points are the corners of
+     the box's section in that plane (one per 2 x 2 element voxel, as in the paper), in boundary order
+     (counter-clockwise seen from the normal's side, the normal oriented to have z >= 0, as
+     :func:`~.helpers.normal` does).
 
-"Cloud point" means a point of the fine voxel-downsampled cloud (the mean of the raw points in one
-4 mm voxel), i.e. a point on the observed surface. Every representative is also a *supported* point
-(at least half the typical number of neighbours within 2.5 fine voxels, a DBSCAN core-point test),
-so a stray outlier is never chosen however well it ranks. For a whole solid object the centroid of
-its visible surface lies inside it, so its point element lands on the visible face nearest that
-centroid (which face can change with the viewpoint); a flat part such as a top face is stable.
+Without views (:func:`fit_element_points`), step 2 keeps the observed box.
 
-End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
+Every element built from masks carries its cloud (capped at ``MAX_CLOUD_POINTS``) and an
+:class:`~code_as_monitor.core.elements.ElementSupport` (points, views, the box residual, extents, assumed
+sides). End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
 """
 
 from __future__ import annotations
@@ -34,11 +31,28 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from code_as_monitor.core.camera import CameraModel, validate_rigid
+from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
-from code_as_monitor.core.errors import ElementError, GeometryError, NoValidDepthError
+from code_as_monitor.core.errors import ElementError, GeometryError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.fusion import fuse_points, remove_outliers, voxel_downsample, voxel_keys
+from code_as_monitor.geometry.fusion import voxel_downsample
+from code_as_monitor.geometry.part_cloud import (
+    MIN_FINE_VOXEL,
+    Observation3D,
+    cap_cloud,
+    dense_clusters,
+    fine_voxel_size,
+    fuse_part,
+    mask_cloud,
+    part_cloud,
+)
+from code_as_monitor.geometry.solid import Box, CarveView, SupportPlane, carve, fit_box
+
+__all__ = [
+    "MIN_FINE_VOXEL", "VOXEL_DIVISIONS", "Observation3D", "build_element", "build_element_from_clouds", "cap_cloud",
+    "ee_element",
+    "element_points", "element_voxel_size", "fine_voxel_size", "fit_element_points", "mask_cloud", "part_cloud",
+]
 
 VOXEL_DIVISIONS: dict[ElementKind, tuple[int, int, int]] = {
     ElementKind.POINT: (1, 1, 1),
@@ -47,24 +61,6 @@ VOXEL_DIVISIONS: dict[ElementKind, tuple[int, int, int]] = {
 }
 """Element voxels per axis of the element's own frame (principal axes; for a surface the last axis
 is the plane normal): the occupied space is divided into this many voxels, one representative each."""
-
-MIN_FINE_VOXEL = 0.004
-"""Metres: the finest voxel of the downsampling grid."""
-FINE_VOXELS_ACROSS = 100
-"""The fine voxel is at least the part's robust extent divided by this (bounds the cloud size)."""
-DBSCAN_MAX_POINTS = 1500
-"""DBSCAN runs on a grid coarse enough to hold about this many points (it dominates the cost)."""
-
-Observation3D = tuple[np.ndarray, np.ndarray, CameraModel]
-"""``(mask (H, W) bool, depth (H, W) metres, camera)``: one view of one part."""
-
-
-def fine_voxel_size(points: np.ndarray) -> float:
-    """Fine downsampling voxel (metres) for a cloud (N, 3): max(4 mm, robust extent / 100)."""
-    if len(points) < 2:
-        return MIN_FINE_VOXEL
-    lo, hi = np.percentile(points, [2.0, 98.0], axis=0)
-    return float(max(MIN_FINE_VOXEL, (hi - lo).max() / FINE_VOXELS_ACROSS))
 
 
 def element_voxel_size(points: np.ndarray, kind: ElementKind | str) -> np.ndarray:
@@ -91,164 +87,43 @@ def _principal_axes(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return c, V[:, ::-1].T
 
 
-def _dense_clusters(Q: np.ndarray, voxel: float, min_cluster_frac: float = 0.1) -> np.ndarray:
-    """Rows of ``Q`` (M, 3) kept by DBSCAN: every cluster at least ``min_cluster_frac`` of the largest.
-
-    DBSCAN runs on at most about :data:`DBSCAN_MAX_POINTS` voxel centres: ``Q`` is re-gridded with a
-    voxel ``g >= voxel`` chosen for that, and each row of ``Q`` takes its voxel's label. ``eps`` is
-    2.5 voxels ``g`` (a surface voxel has ~20 neighbours within it), ``min_samples`` 4. Returns all
-    of ``Q`` when DBSCAN finds no cluster (a tiny cloud).
-    """
-    if len(Q) < 8:
-        return Q
-    from sklearn.cluster import DBSCAN
-
-    g = voxel * max(1.0, float(np.sqrt(len(Q) / DBSCAN_MAX_POINTS)))  # surfaces: count ~ 1 / g^2
-    if g > voxel:
-        _, inv = np.unique(voxel_keys(Q, g), return_inverse=True)
-        inv = inv.reshape(-1)
-        counts = np.bincount(inv)
-        C = np.stack([np.bincount(inv, weights=Q[:, i]) for i in range(3)], axis=1) / counts[:, None]
-    else:
-        inv, C = np.arange(len(Q)), Q
-    labels = DBSCAN(eps=2.5 * g, min_samples=4).fit_predict(C)[inv]
-    good = labels >= 0
-    if not good.any():
-        return Q
-    sizes = np.bincount(labels[good])
-    keep = np.flatnonzero(sizes >= min_cluster_frac * sizes.max())
-    return Q[np.isin(labels, keep)]
-
-
 def _orient(d: np.ndarray) -> np.ndarray:
     """Flip the direction ``d`` (3,) so that its largest-magnitude component is positive."""
     return -d if d[int(np.argmax(np.abs(d)))] < 0 else d
 
 
-class _Support:
-    """Picks representatives that are DBSCAN-style core points of the fine cloud ``Q`` (M, 3).
-
-    A point is supported when it has at least half the cloud's median number of neighbours within
-    2.5 fine voxels: a lone outlier that survived the filters (say, one just behind the visible
-    surface, close to the centroid) is never chosen, however well it ranks.
-    """
-
-    def __init__(self, Q: np.ndarray, voxel: float) -> None:
-        from scipy.spatial import cKDTree
-
-        self.Q = Q
-        self.tree = cKDTree(Q)
-        self.r = 2.5 * voxel
-        sample = Q[np.linspace(0, len(Q) - 1, min(len(Q), 256)).astype(np.int64)]
-        self.need = 0.5 * float(np.median(self.tree.query_ball_point(sample, self.r, return_length=True)))
-
-    def first(self, order: np.ndarray, chunk: int = 32) -> int:
-        """The first index of ``order`` (indices into Q, best first) that is supported (else ``order[0]``)."""
-        for k in range(0, len(order), chunk):
-            idx = order[k : k + chunk]
-            ok = self.tree.query_ball_point(self.Q[idx], self.r, return_length=True) >= self.need
-            if ok.any():
-                return int(idx[np.argmax(ok)])
-        return int(order[0])
+def _surface_points(Q: np.ndarray, box: Box, thin: int) -> np.ndarray:
+    """The 4 corners (4, 3) of the box's section through its centre across axis ``thin``, counter-clockwise
+    seen from the side the plane's normal (z >= 0) points to."""
+    j, k = [a for a in range(3) if a != thin]
+    ext = box.extent
+    if min(ext[j], ext[k]) < 1e-6:
+        raise ElementError(f"cannot fit a surface: the {len(Q)} points are collinear")
+    n = box.axes[thin] if box.axes[thin][2] >= 0 else -box.axes[thin]
+    c = box.centre
+    uj, uk = box.axes[j] * ext[j] / 2.0, box.axes[k] * ext[k] / 2.0
+    pts = np.stack([c + uj + uk, c - uj + uk, c - uj - uk, c + uj - uk])
+    ang = np.arctan2((pts - c) @ np.cross(n, box.axes[j]), (pts - c) @ box.axes[j])
+    return pts[np.argsort(ang)]
 
 
-def _fit_point(Q: np.ndarray, sup: _Support) -> np.ndarray:
-    c = Q.mean(axis=0)
-    return Q[sup.first(np.argsort(((Q - c) ** 2).sum(axis=1)))][None]
-
-
-def _fit_line(Q: np.ndarray, sup: _Support) -> np.ndarray:
-    c, axes = _principal_axes(Q)
-    d = _orient(axes[0])
-    s = (Q - c) @ d
-    order = np.argsort(s)
-    lo, hi = float(s[sup.first(order)]), float(s[sup.first(order[::-1])])
-    if hi - lo < 1e-6:
-        raise ElementError(f"cannot fit a line: the {len(Q)} points coincide")
-    # Two element voxels along the axis: [lo, mid) and [mid, hi]; each one's representative is its
-    # outer end, placed on the fitted axis so that the direction is the least-squares one.
-    return np.stack([c + lo * d, c + hi * d])
-
-
-def _min_area_rect(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minimum-area bounding rectangle of 2-D points (M, 2): centre (2,), axes (2, 2) rows, half sizes (2,)."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        H = xy[ConvexHull(xy).vertices]
-    except (QhullError, ValueError):
-        H = xy
-    edges = np.roll(H, -1, axis=0) - H
-    norms = np.linalg.norm(edges, axis=1)
-    edges = edges[norms > 1e-12] / norms[norms > 1e-12, None]
-    if len(edges) == 0:
-        edges = np.array([[1.0, 0.0]])
-    best = None
-    for e in edges:
-        R = np.array([e, [-e[1], e[0]]])
-        r = H @ R.T
-        lo, hi = r.min(axis=0), r.max(axis=0)
-        area = float(np.prod(hi - lo))
-        if best is None or area < best[0]:
-            best = (area, R, lo, hi)
-    _, R, lo, hi = best
-    return ((lo + hi) / 2.0) @ R, R, (hi - lo) / 2.0
-
-
-def _fit_surface(Q: np.ndarray, sup: _Support) -> np.ndarray:
+def element_points(Q: np.ndarray, box: Box, kind: ElementKind, voxel: float, thin: int | None = None) -> np.ndarray:
+    """The element's points (k, 3) world metres from a part's cloud ``Q`` (M, 3) and its box."""
+    if kind is ElementKind.POINT:
+        return box.centre[None]
+    ext = box.extent
+    if kind is ElementKind.LINE:
+        a = int(np.argmax(ext))
+        if ext[a] < 1e-6:
+            raise ElementError(f"cannot fit a line: the {len(Q)} points coincide")
+        d = _orient(box.axes[a])
+        return np.stack([box.centre - ext[a] / 2.0 * d, box.centre + ext[a] / 2.0 * d])
     if len(Q) < 3:
         raise ElementError(f"cannot fit a surface through {len(Q)} point(s)")
-    ids = np.arange(len(Q))
-    c, axes = _principal_axes(Q)
-    # Robust plane: refit on points within 3 robust sigmas (MAD) of the first least-squares plane.
-    r = (Q - c) @ axes[2]
-    dev = np.abs(r - np.median(r))
-    inl = dev <= max(3.0 * 1.4826 * float(np.median(dev)), 1e-4)
-    if inl.sum() >= 3:
-        ids = ids[inl]
-        c, axes = _principal_axes(Q[ids])
-    n = axes[2] if axes[2][2] >= 0 else -axes[2]
-    e1 = axes[0]
-    e2 = np.cross(n, e1)  # (e1, e2, n) right-handed: counter-clockwise seen from +n
-    E = np.stack([e1, e2], axis=1)  # (3, 2) plane coordinates
-    xy = (Q[ids] - c) @ E
-    centre, R, half = _min_area_rect(xy)
-    if half.min() < 1e-6:
-        raise ElementError(f"cannot fit a surface: the {len(ids)} points are collinear")
-    uv = (xy - centre) @ R.T / half  # in [-1, 1]^2 over the occupied rectangle
-    reps = []
-    # 2 x 2 element voxels; each one's representative is its supported point furthest towards the
-    # voxel's outer corner, projected on the plane.
-    for su, sv in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
-        cell = np.flatnonzero((su * uv[:, 0] >= 0) & (sv * uv[:, 1] >= 0))
-        if len(cell) == 0:
-            continue
-        order = cell[np.argsort(-(su * uv[cell, 0] + sv * uv[cell, 1]))]
-        reps.append((Q[sup.first(ids[order])] - c) @ E)
-    if len(reps) < 3:
-        raise ElementError(f"cannot fit a surface: only {len(reps)} of the 2 x 2 voxels are occupied")
-    rep = np.array(reps)
-    # R may be a reflection of (e1, e2): restore counter-clockwise order seen from +n.
-    ang = np.arctan2(rep[:, 1] - rep[:, 1].mean(), rep[:, 0] - rep[:, 0].mean())
-    rep = rep[np.argsort(ang)]
-    return c + rep @ E.T
+    return _surface_points(Q, box, int(np.argmin(ext)) if thin is None else thin)
 
 
-def fit_element_points(
-    points: np.ndarray, kind: ElementKind | str, voxel_size: float | None = None
-) -> np.ndarray:
-    """The element's points from a part's cloud.
-
-    Args:
-        points: (N, 3) world frame, metres (fused, ideally outlier-filtered); non-finite rows ignored.
-        kind: point | line | surface (str or :class:`ElementKind`).
-        voxel_size: fine downsampling voxel in metres (default :func:`fine_voxel_size`).
-    Returns:
-        (k, 3) world, metres: k = 1 (point), 2 (line: ends along the principal axis), 3 or 4
-        (surface: non-collinear points spanning the fitted plane, in boundary order).
-    Raises:
-        ElementError: unknown kind, no points, or degenerate geometry for the kind.
-    """
+def _prepare(points: np.ndarray, kind: ElementKind | str, voxel_size: float | None) -> tuple[np.ndarray, float]:
     kind = ElementKind.parse(kind)
     P = np.asarray(points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3:
@@ -258,96 +133,39 @@ def fit_element_points(
         raise ElementError(f"cannot fit a {kind.value}: no finite points")
     vs = fine_voxel_size(P) if voxel_size is None else float(voxel_size)
     Q, _ = voxel_downsample(P, vs)
-    Q = _dense_clusters(Q, vs)
-    sup = _Support(Q, vs)
-    if kind is ElementKind.POINT:
-        return _fit_point(Q, sup)
-    if kind is ElementKind.LINE:
-        return _fit_line(Q, sup)
-    return _fit_surface(Q, sup)
+    return dense_clusters(Q, vs), vs
 
 
-def part_cloud(
-    observations: Sequence[Observation3D],
-    max_depth: float = DEFAULT_MAX_DEPTH,
-    k: int = 16,
-    std_ratio: float = 2.0,
-    name: str = "part",
-) -> tuple[np.ndarray, float]:
-    """Fused, downsampled, outlier-filtered cloud (M, 3) of one part over its views, and the voxel used.
-
-    Raises:
-        ShapeMismatchError: a mask, depth and camera disagree in size.
-        NoValidDepthError: no view has a mask pixel with a valid depth.
-    """
-    Q, vs, _ = _part_cloud_views(observations, max_depth, k, std_ratio, name)
-    return Q, vs
-
-
-def _part_cloud_views(
-    observations: Sequence[Observation3D], max_depth: float, k: int, std_ratio: float, name: str
-) -> tuple[np.ndarray, float, int]:
-    """:func:`part_cloud` plus the number of views that gave at least one valid point."""
-    clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
-    P = fuse_points(clouds)
-    if len(P) == 0:
-        names = ", ".join(repr(cam.name) for _, _, cam in observations) or "(none)"
-        raise NoValidDepthError(f"{name}: no mask pixel with a valid depth in any view ({names})")
-    vs = fine_voxel_size(P)
-    Q, _ = voxel_downsample(P, vs)
-    return remove_outliers(Q, k=k, std_ratio=std_ratio), vs, sum(len(c) > 0 for c in clouds)
-
-
-def cap_cloud(points: np.ndarray, max_points: int = MAX_CLOUD_POINTS, voxel: float = MIN_FINE_VOXEL) -> np.ndarray:
-    """Voxel-downsample a cloud (N, 3) world metres until it holds at most ``max_points`` points.
-
-    Starts at ``voxel`` metres and grows the voxel by the square root of the excess (clouds of surfaces
-    shrink with the square of the voxel); returns the input unchanged when it is already small enough.
-    """
-    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if max_points < 1:
-        raise GeometryError(f"cap_cloud: max_points must be >= 1, got {max_points!r}")
-    g = float(voxel)
-    while len(P) > max_points:
-        g *= max(1.1, float(np.sqrt(len(P) / max_points)))
-        P, _ = voxel_downsample(P, g)
-    return P
-
-
-def mask_cloud(
-    observations: Sequence[Observation3D], max_points: int = MAX_CLOUD_POINTS, max_depth: float = DEFAULT_MAX_DEPTH
+def fit_element_points(
+    points: np.ndarray, kind: ElementKind | str, voxel_size: float | None = None
 ) -> np.ndarray:
-    """The fused, downsampled, outlier-filtered cloud (M, 3) world metres of masks over views, at most
-    ``max_points`` points; (0, 3) when no mask pixel has a valid depth.
+    """The element's points from a part's cloud alone (no views: the observed box, nothing carved).
 
+    Args:
+        points: (N, 3) world frame, metres (fused, ideally outlier-filtered); non-finite rows ignored.
+        kind: point | line | surface (str or :class:`ElementKind`).
+        voxel_size: fine downsampling voxel in metres (default :func:`fine_voxel_size`).
+    Returns:
+        (k, 3) world, metres: k = 1 (the box centre), 2 (line: the ends of the box's longest axis), 3 or 4
+        (surface: points spanning the plane through the centre, in boundary order).
     Raises:
-        ShapeMismatchError: a mask, depth and camera disagree in size.
+        ElementError: unknown kind, no points, or degenerate geometry for the kind.
     """
-    try:
-        Q, vs, _ = _part_cloud_views(observations, max_depth, 16, 2.0, "cloud")
-    except NoValidDepthError:
-        return np.empty((0, 3))
-    return cap_cloud(Q, max_points, vs)
+    kind = ElementKind.parse(kind)
+    Q, vs = _prepare(points, kind, voxel_size)
+    return element_points(Q, fit_box(Q, vs), kind, vs)
 
 
-def _support(Q: np.ndarray, pts: np.ndarray, kind: ElementKind, views: int) -> ElementSupport:
-    """The support record of element points ``pts`` (k, 3) fitted on cloud ``Q`` (M, 3)."""
-    c, axes = _principal_axes(Q)
-    s = (Q - c) @ axes.T
-    extent = s.max(axis=0) - s.min(axis=0) if len(Q) else np.zeros(3)
-    if kind is ElementKind.SURFACE and len(pts) >= 3:
-        n = np.cross(pts[1] - pts[0], pts[2] - pts[0])
-        n = n / max(float(np.linalg.norm(n)), 1e-12)
-        r = (Q - pts.mean(axis=0)) @ n
-    elif kind is ElementKind.LINE:
-        d = (pts[1] - pts[0]) / np.linalg.norm(pts[1] - pts[0])
-        X = Q - pts[0]
-        r = np.linalg.norm(X - np.outer(X @ d, d), axis=1)
-    else:
-        r = np.linalg.norm(Q - pts[0], axis=1)
-    return ElementSupport(len(Q), int(views), float(np.sqrt(np.mean(r**2))) if len(r) else 0.0,
-                          float(extent.max() / 2.0) if len(Q) else 0.0,
-                          (float(extent[0]), float(extent[1]), float(extent[2])))
+def fit_part(
+    Q: np.ndarray, voxel: float, kind: ElementKind, views: Sequence[CarveView],
+    support: SupportPlane | None = None,
+) -> tuple[np.ndarray, Box]:
+    """Element points (k, 3) and the carved box of a part's cloud ``Q`` (M, 3) seen in ``views``."""
+    box = fit_box(Q, voxel) if support is None else fit_box(Q, voxel, noise=support.noise, up=support.normal)
+    thin = int(np.argmin(box.extent))
+    grow = [a for a in range(3) if not (kind is ElementKind.SURFACE and a == thin)]
+    box = carve(box, views, support, grow)
+    return element_points(Q, box, kind, voxel, thin), box
 
 
 def build_element(
@@ -355,8 +173,7 @@ def build_element(
     spec: ElementSpec,
     observations: Sequence[Observation3D],
     max_depth: float = DEFAULT_MAX_DEPTH,
-    k: int = 16,
-    std_ratio: float = 2.0,
+    support: SupportPlane | None = None,
 ) -> Element:
     """Build the element ``spec`` from its masks in one or more views.
 
@@ -364,22 +181,40 @@ def build_element(
         id: element id (the number drawn on the images); also picks the colour.
         spec: what to abstract (object, part, kind).
         observations: ``(mask (H, W) bool, depth (H, W) metres, camera)`` per view; a view where the
-            part is not visible (empty mask or no valid depth) is skipped.
+            part is not visible (empty mask or no valid depth) adds no points but still carves free space.
         max_depth: metres; depth beyond is missing.
-        k, std_ratio: statistical outlier removal parameters.
+        support: optional support plane (:func:`~.solid.support_plane`): the part's hidden sides never grow
+            below it; its normal is tried as a box axis and its noise estimate sets the tolerances.
     Returns:
-        The element, points in the world frame, owner ``(spec.obj, spec.part)``.
+        The element, points in the world frame, owner ``(spec.obj, spec.part)``, with its cloud and support.
     Raises:
         ShapeMismatchError, NoValidDepthError, ElementError (degenerate geometry for the kind).
     """
-    P, vs, views = _part_cloud_views(observations, max_depth, k, std_ratio, f"element {spec.name!r}")
+    clouds = [backproject_mask(m, d, cam, max_depth, allow_empty=True) for m, d, cam in observations]
+    views = [CarveView(np.asarray(m, dtype=bool), d, cam) for m, d, cam in observations]
+    return build_element_from_clouds(id, spec, clouds, views, support)
+
+
+def build_element_from_clouds(
+    id: int,
+    spec: ElementSpec,
+    clouds: Sequence[np.ndarray],
+    views: Sequence[CarveView],
+    support: SupportPlane | None = None,
+) -> Element:
+    """:func:`build_element` from the part's points already lifted per view (``clouds``: (N_i, 3) world
+    metres, one per view, in the order of ``views``, whose masks are the part's)."""
+    P, vs, nviews = fuse_part(clouds, [v.camera.name for v in views], f"element {spec.name!r}")
+    Q = dense_clusters(P, vs)
     try:
-        pts = fit_element_points(P, spec.kind, voxel_size=vs)
+        pts, box = fit_part(Q, vs, spec.kind, views, support)
     except ElementError as exc:
         raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): {exc}") from None
-    cloud = cap_cloud(P, MAX_CLOUD_POINTS, vs)
-    return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id), cloud=cloud,
-                   support=_support(P, pts, spec.kind, views))
+    ext = np.sort(box.extent)[::-1]
+    sup = ElementSupport(len(Q), int(nviews), box.residual(Q), float(ext[0] / 2.0),
+                         (float(ext[0]), float(ext[1]), float(ext[2])), int(box.hidden.sum()))
+    return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id),
+                   cloud=cap_cloud(Q, MAX_CLOUD_POINTS, vs), support=sup)
 
 
 def ee_element(

@@ -4,8 +4,9 @@ Each perturbation is a plausible-but-different world: elements translated by a f
 to ~0.3 m, raised or lowered, lines and surfaces rotated, elements moved apart or together, points
 piled on one another (degenerate lines and surfaces), elements swapped, histories that are
 static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
-longer, and meetings (one element moved since the oldest frame to where another is now: a block carried
-up to the suction tip). Every array is world frame, metres; times are seconds.
+longer, meetings (one element moved since the oldest frame to where another is now: a block carried
+up to the suction tip) and placements (one element put just above another: a block over its target).
+Every array is world frame, metres; times are seconds.
 """
 
 from __future__ import annotations
@@ -91,13 +92,21 @@ TURNS_PER_ELEMENT = 3
 """Turning-history probes per line or surface element, added after the ``n`` perturbations: a check that
 compares an element's direction with its oldest one (a book turned under the gripper) needs them."""
 MAX_MEETINGS = 12
-"""Meeting probes (element a moved, since the oldest frame, to where element b is now) added last: a check
-that an object rose with the gripper since the grasp began (a block carried to the suction tip) needs them."""
+"""Meeting probes (element a moved, since the oldest frame, to where element b is now) added after the
+turning histories: a check that an object rose with the gripper since the grasp began (a block carried
+to the suction tip) needs them."""
+
+MAX_PLACEMENTS = 30
+"""Placement probes (element i put just above element j) added after the meetings, last: a check that a
+block ends up over its target is only True near that configuration, which random translations of a few
+decimetres rarely reach. All ordered pairs up to this many, else a seeded sample of pairs."""
 
 
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
                 history_t: np.ndarray | None, t: float, n: int, seed: int = 0) -> list[Probe]:
-    """The unperturbed state first, then ``n`` perturbations cycling through the families above."""
+    """The unperturbed state first, then ``n`` perturbations cycling through the families above, then the
+    turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`) and the placements
+    (:data:`MAX_PLACEMENTS`)."""
     base = normalise_state(elements, history, history_t, t)
     probes = [Probe("the current state (unperturbed)", *base)]
     ids = sorted(base[0])
@@ -203,4 +212,15 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     if len(pairs) > MAX_MEETINGS:
         pairs = [pairs[k] for k in sorted(meet_rng.choice(len(pairs), MAX_MEETINGS, replace=False))]
     probes += [meeting(a, b) for a, b in pairs]
+    place_rng = np.random.default_rng([seed, 3])  # a stream of its own
+    pairs = [(i, j) for i in ids for j in ids if i != j]
+    if len(pairs) > MAX_PLACEMENTS:
+        pairs = [pairs[k] for k in sorted(place_rng.choice(len(pairs), MAX_PLACEMENTS, replace=False))]
+    for i, j in pairs:
+        top = base[0][j][:, 2].max()
+        lift = place_rng.uniform(0.01, 0.06)
+        o = base[0][j].mean(axis=0) - base[0][i].mean(axis=0)
+        o[2] = top + lift - base[0][i][:, 2].min()
+        probes.append(Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
+                            *_map_elements(base, {i: lambda p, o=o: p + o})))
     return probes

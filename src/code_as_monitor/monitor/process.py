@@ -119,12 +119,11 @@ class WorkerProcess:
             data = data[n:]
 
     def _wait(self, events: int, deadline: float) -> None:
+        """Wait for ``events`` until the deadline (past it: only look, without waiting)."""
         left = deadline - time.perf_counter()
-        if left <= 0:
-            raise LateError
         self.poller.modify(self.sock.fileno(), events)
         try:
-            if not self.poller.poll(math.ceil(left * 1e3)):
+            if not self.poller.poll(max(0, math.ceil(left * 1e3))):
                 raise LateError
         finally:
             self.poller.modify(self.sock.fileno(), _POLLIN)
@@ -152,6 +151,8 @@ class WorkerProcess:
             elif self._start and self._end == len(buf):
                 buf[:avail] = buf[self._start:self._end]
                 self._start, self._end = 0, avail
+            if not avail:  # nothing buffered: the reply is not there yet, wait for it first
+                self._wait(_POLLIN, deadline)
             try:
                 n = self.sock.recv_into(self._view[self._end:])
             except BlockingIOError:

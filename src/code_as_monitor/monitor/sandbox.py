@@ -1,18 +1,19 @@
 """Run monitor programs in fresh, kernel-confined worker processes with a per-frame deadline.
 
-The control process never executes generated code. :class:`Sandbox` keeps a *spare* worker started in
-the background (:mod:`.process`, :mod:`.worker`): a fresh interpreter that has imported what it needs
-and confined itself (:mod:`.confine`: seccomp filter, ``no_new_privs``, new user and network
+The control process never executes generated code. :class:`Sandbox` keeps *spare* workers started
+(:mod:`.pool`, :mod:`.process`, :mod:`.worker`): fresh interpreters that have imported what they need
+and confined themselves (:mod:`.confine`: seccomp filter, ``no_new_privs``, new user and network
 namespaces where the kernel allows them). Every :meth:`Sandbox.load` hands the program to a spare, so no
-state carries from one program to the next, and starts the next spare. Then :meth:`Sandbox.evaluate`
-makes exactly one round trip per frame for all checks.
+state carries from one program to the next, and starts the next spare once the program is loaded; after
+a kill, a spawner thread starts it. Then :meth:`Sandbox.evaluate` makes exactly one round trip per frame
+for all checks.
 
 The control process trusts nothing a worker sends: replies are bounded in size and parsed against a
 fixed layout (:mod:`.protocol`), reasons are truncated and stripped of addresses, non-finite margins
 are faults, and a late, malformed or missing reply makes every check of that frame a fault verdict
 (never an exception): the worker is killed and the spare takes over with the same program. Until it has
-loaded, :meth:`Sandbox.evaluate` answers at once with "restarting" faults. No call waits past its
-deadline (plus the few milliseconds of starting the next spare).
+loaded, :meth:`Sandbox.evaluate` answers at once with "restarting" faults. No call of
+:meth:`Sandbox.evaluate` waits past its deadline: it never starts a process itself.
 
 Where confinement cannot be installed the worker says why and generated code does not run, unless the
 caller opts out explicitly: ``Sandbox(allow_unconfined=True)`` or ``CAM_ALLOW_UNCONFINED=1``.
@@ -32,6 +33,7 @@ import numpy as np
 from code_as_monitor.core.constraints import Constraint, Verdict
 from code_as_monitor.core.errors import ProgramError, SandboxError, ShapeMismatchError
 from code_as_monitor.monitor import protocol
+from code_as_monitor.monitor.pool import SparePool
 from code_as_monitor.monitor.process import LateError, WorkerProcess
 from code_as_monitor.monitor.protocol import ReplyError
 from code_as_monitor.monitor.validate import validate_program
@@ -72,9 +74,12 @@ def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
     return tuple((i, p.shape[0]) for i, p in E), tuple((i, h.shape[0], h.shape[1]) for i, h in Hs), data
 
 
-def _kill_all(workers: list[WorkerProcess]) -> None:
-    for w in workers:
-        w.kill()
+def _shutdown(pools: list[SparePool]) -> None:
+    """Last-resort cleanup of a sandbox that was never closed: stop its spawner, kill its workers."""
+    for pool in pools:
+        pool.close()
+        for w in list(pool.registry):
+            w.kill()
 
 
 class Sandbox:
@@ -114,7 +119,7 @@ class Sandbox:
         self.confine = bool(confine)
         self.allow_unconfined = bool(allow_unconfined)
         self._active: WorkerProcess | None = None
-        self._spares: list[WorkerProcess] = []
+        self._pool: SparePool | None = None  # started on first use
         self._dying: list[WorkerProcess] = []
         self._program: tuple[str, list[Constraint], bool] | None = None
         self._constraints: list[Constraint] = []
@@ -126,22 +131,21 @@ class Sandbox:
         self.n_branches = 0
         self.last_marks: list[int] = []
         self.last_load_s = math.nan
-        self._all: list[WorkerProcess] = []
-        self._finalizer = weakref.finalize(self, _kill_all, self._all)
+        self._pools: list[SparePool] = []
+        self._finalizer = weakref.finalize(self, _shutdown, self._pools)
 
     # --- workers ----------------------------------------------------------------------------------
-    def _spawn(self) -> WorkerProcess:
-        try:
-            w = WorkerProcess(self.memory_mb, self.cpu_s, self.confine)
-        except OSError as exc:
-            raise SandboxError(f"cannot start the sandbox worker: {exc}") from exc
-        self._all.append(w)
-        return w
+    def _spare_pool(self) -> SparePool:
+        if self._pool is None:
+            memory_mb, cpu_s, confine = self.memory_mb, self.cpu_s, self.confine
+            self._pool = SparePool(self.n_spares, lambda: WorkerProcess(memory_mb, cpu_s, confine))
+            self._pools.append(self._pool)
+        return self._pool
 
-    def _fill_spares(self) -> None:
+    def _take_spare(self, timeout: float, refill: bool = True) -> WorkerProcess | None:
+        """A started spare (waiting up to ``timeout`` for one; None if there is none by then)."""
         self._collect()
-        while len(self._spares) < self.n_spares:
-            self._spares.append(self._spawn())
+        return self._spare_pool().take(timeout, refill)
 
     def _retire(self, w: WorkerProcess | None) -> None:
         if w is not None:
@@ -152,15 +156,8 @@ class Sandbox:
         """Reap retired workers that have exited (never waits)."""
         for w in [w for w in self._dying if w.reap(0.0)]:
             self._dying.remove(w)
-            self._all.remove(w)
-
-    def _take_spare(self) -> WorkerProcess:
-        if not self._spares:
-            self._spares.append(self._spawn())
-        ready = [w for w in self._spares if w.ready]
-        w = ready[0] if ready else self._spares[0]
-        self._spares.remove(w)
-        return w
+            if self._pool is not None:
+                self._pool.forget(w)
 
     def _absorb(self, w: WorkerProcess, deadline: float) -> None:
         """Read the replies ``w`` still owes until the deadline (raises :class:`LateError` at it)."""
@@ -189,10 +186,12 @@ class Sandbox:
         if self.confine and flags & _CONFINED != _CONFINED:
             log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
 
-    def _ready_worker(self, deadline: float) -> WorkerProcess:
+    def _ready_worker(self, deadline: float, refill: bool = True) -> WorkerProcess:
         """A spare that has said ready (started if need be), replacing ones that die on the way up."""
         while True:
-            w = self._take_spare()
+            w = self._take_spare(max(0.0, deadline - time.perf_counter()), refill)
+            if w is None:
+                raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
             try:
                 self._absorb(w, deadline)
                 self._start_failures = 0
@@ -218,14 +217,18 @@ class Sandbox:
                 the caller did not opt out).
         """
         deadline = time.perf_counter() + self.start_timeout_s
-        self._fill_spares()
         w = self._ready_worker(deadline)
-        self._spares.insert(0, w)
-        for _ in range(MAX_START_FAILURES):
+        self._spare_pool().put_back(w)
+        for _ in range(2 * MAX_START_FAILURES):
             if self._program is None or (self._active is not None and self._active.ready):
                 break
             if self._active is None:
-                self._replace("no worker")
+                self._activate_spare()
+                if self._active is None:
+                    w = self._take_spare(max(0.0, deadline - time.perf_counter()))
+                    if w is None:
+                        raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
+                    self._spare_pool().put_back(w)
                 continue
             try:
                 self._absorb(self._active, deadline)
@@ -237,13 +240,17 @@ class Sandbox:
 
     def close(self) -> None:
         """Stop every worker (SIGKILL) and collect them."""
-        workers = [w for w in (self._active, *self._spares, *self._dying) if w is not None]
-        self._active, self._spares, self._dying = None, [], []
+        workers = [w for w in (self._active, *self._dying) if w is not None]
+        pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.close()
+            workers += [w for w in pool.registry if w not in workers]
+        self._active, self._dying = None, []
         for w in workers:
             w.kill()
         for w in workers:
             w.reap(timeout=5.0)
-        self._all.clear()
+        self._pools.clear()
 
     def __enter__(self) -> Sandbox:
         return self.start()
@@ -257,9 +264,16 @@ class Sandbox:
         return self._active.pid if self._active is not None and not self._active.dead else None
 
     @property
+    def all_pids(self) -> set[int]:
+        """Process ids of every worker this sandbox holds: the active one, the spares, and killed ones not
+        yet collected."""
+        workers = [self._active, *self._dying, *(self._pool.registry if self._pool is not None else ())]
+        return {w.pid for w in workers if w is not None}
+
+    @property
     def confinement(self) -> str:
         """What confines the current (or next) worker, in words; "unknown" before one said ready."""
-        for w in (self._active, *self._spares):
+        for w in (self._active, *(self._pool.registry if self._pool is not None else ())):
             if w is not None and w.confinement is not None:
                 return w.confinement[1]
         return "unknown"
@@ -270,12 +284,17 @@ class Sandbox:
         self._retire(self._active)
         self._active = None
         self.n_restarts += 1
-        if self._program is None:
-            return
+        if self._program is not None:
+            self._activate_spare()
+
+    def _activate_spare(self) -> None:
+        """Hand the current program to a spare without waiting (nothing happens if there is none yet)."""
         try:
-            w = self._take_spare()
+            w = self._take_spare(0.0)
         except SandboxError as exc:  # cannot even start a process: try again on the next call
             log.error("no sandbox worker could be started: %s", exc)
+            return
+        if w is None:
             return
         self._active = w
         try:
@@ -285,10 +304,6 @@ class Sandbox:
         except (LateError, OSError):
             self._retire(w)
             self._active = None
-        try:
-            self._fill_spares()
-        except SandboxError as exc:
-            log.error("no spare sandbox worker could be started: %s", exc)
 
     # --- programs ---------------------------------------------------------------------------------
     def load(self, source: str, constraints: list[Constraint], *, coverage: bool = False) -> None:
@@ -307,7 +322,15 @@ class Sandbox:
         validate_program(source, constraints)
         self._retire(self._active)
         self._active, self._program, self._constraints = None, None, []
-        w = self._ready_worker(t0 + self.start_timeout_s)
+        try:  # the next spare starts once this load is done, not competing with it
+            w = self._ready_worker(t0 + self.start_timeout_s, refill=False)
+            self._load_into(w, source, constraints, coverage)
+        finally:
+            if self._pool is not None:
+                self._pool.refill()
+        self.last_load_s = time.perf_counter() - t0
+
+    def _load_into(self, w: WorkerProcess, source: str, constraints: list[Constraint], coverage: bool) -> None:
         self._max_reply = protocol.max_result_bytes(len(constraints), 10_000 if coverage else 0)
         w.allow_reply(self._max_reply)
         try:
@@ -331,8 +354,6 @@ class Sandbox:
         self._constraints = list(constraints)
         self._reasons = [(b"\0", "")] * len(constraints)
         self.n_branches = w.n_branches
-        self.last_load_s = time.perf_counter() - t0
-        self._fill_spares()
 
     # --- evaluation -------------------------------------------------------------------------------
     def _faults(self, reason: str, t: float) -> list[Verdict]:
@@ -364,8 +385,8 @@ class Sandbox:
         t = float(t)
         layout_e, layout_h, data = pack(elements, history, history_t, t)
         w = self._active
-        if w is None:
-            self._replace("no worker")
+        if w is None:  # replaced, and no spare had been started yet
+            self._activate_spare()
             return self._faults("monitor worker is restarting", t)
         if not w.ready:
             try:
@@ -389,7 +410,8 @@ class Sandbox:
             self._replace(f"malformed reply: {exc}")
             return self._faults(f"monitor worker gave a malformed reply ({exc})", t)
         except (EOFError, OSError) as exc:
-            how = w.how_it_ended(wait_s=0.005)  # a worker that closed its socket is usually exiting
+            # a worker that closed its socket is exiting: its exit status, if it comes within the deadline
+            how = w.how_it_ended(wait_s=max(0.002, deadline - time.perf_counter()))
             self._replace(f"worker died ({how})")
             return self._faults(f"monitor worker died ({how}; {type(exc).__name__})", t)
         self.last_marks = marks

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import CamError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.painter.draw import draw_elements
+
+if TYPE_CHECKING:
+    from code_as_monitor.geometry.solid import SupportPlane
 
 log = logging.getLogger(__name__)
 
@@ -78,69 +82,126 @@ class Painter:
     def __init__(self, segmenter: object, min_pixels: int = 12) -> None:
         self.segmenter = segmenter
         self.min_pixels = min_pixels
+        self._plane: tuple[int, SupportPlane | None] | None = None
+
+    def _support(self, obs: Observation) -> SupportPlane | None:
+        """The scene's support plane (the table) from this observation's depth, computed once per observation."""
+        from code_as_monitor.geometry.solid import support_plane
+
+        if self._plane is None or self._plane[0] != id(obs):
+            self._plane = (id(obs), support_plane([(v.depth, v.camera) for v in obs.views.values()]))
+        return self._plane[1]
 
     def build_element(
         self, obs: Observation, element_id: int, spec: ElementSpec, constraint_text: str = ""
     ) -> Element | None:
         """Build one element from all views, or None when no view sees it."""
-        from code_as_monitor.geometry import build_element, ee_element
+        return self.build_elements(obs, {element_id: spec}, {element_id: constraint_text})[element_id]
 
-        if spec.obj == ROBOT:
+    def build_elements(
+        self, obs: Observation, specs: dict[int, ElementSpec], texts: dict[int, str] | None = None
+    ) -> dict[int, Element | None]:
+        """Build several elements in one pass over each view: every view is segmented for all of them at once
+        (:meth:`Segmenter.segment_many`) and lifted once (:func:`~code_as_monitor.geometry.lift_depth`); then
+        each element is fitted from its own points. None for an element no view sees (or whose fit fails).
+
+        A view whose depth does not match its camera is skipped (logged); it never stops the others.
+        """
+        from code_as_monitor.geometry import ee_element
+
+        texts = texts or {}
+        out: dict[int, Element | None] = {}
+        masked: list[tuple[int, ElementSpec]] = []
+        for eid, spec in specs.items():
+            if spec.obj != ROBOT:
+                masked.append((eid, spec))
+                continue
             if obs.robot is None:
-                return None
+                out[eid] = None
+                continue
             part = spec.part or "tip"
             point = obs.robot.ee_points.get(part)
             if point is None:
                 point = obs.robot.ee_pose[:3, 3]
-            return ee_element(element_id, spec.name, np.asarray(point), owner=(spec.obj, part))
-        per_view = []
-        results = [(view, self.segmenter.segment(view, spec, constraint_text))  # type: ignore[attr-defined]
-                   for view in obs.views.values()]
-        whole = [(r.instance_mask, v.depth, v.camera) for v, r in results if r.instance_mask.sum() >= self.min_pixels]
+            out[eid] = ee_element(eid, spec.name, np.asarray(point), owner=(spec.obj, part))
+        if not masked:
+            return out
+        per_view = self._segment_and_lift(obs, [s for _, s in masked], [texts.get(e, "") for e, _ in masked])
+        support = self._support(obs) if per_view else None
+        for j, (eid, spec) in enumerate(masked):
+            out[eid] = self._fit(eid, spec, [(v, pm, ok, res[j]) for v, pm, ok, res in per_view], support)
+        return out
+
+    def _segment_and_lift(self, obs: Observation, specs: list[ElementSpec], texts: list[str]) -> list[tuple]:
+        """Per usable view: (view, points (H, W, 3), valid (H, W), [SegmentResult per spec])."""
+        from code_as_monitor.geometry.backproject import lift_depth
+
+        out = []
+        for name, view in obs.views.items():
+            bad = unusable(view)
+            if bad:
+                log.warning("view %r skipped: %s", name, bad)
+                continue
+            pm, ok = lift_depth(view.depth, view.camera)
+            many = getattr(self.segmenter, "segment_many", None)
+            if many is not None:
+                res = many(view, specs, texts)
+            else:
+                res = [self.segmenter.segment(view, s, t) for s, t in zip(specs, texts)]  # type: ignore[attr-defined]
+            out.append((view, pm, ok, res))
+        return out
+
+    def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None) -> Element | None:
+        """One element from its per-view (view, points, valid, SegmentResult)."""
+        from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
+        from code_as_monitor.geometry.part_cloud import fuse_part
+        from code_as_monitor.geometry.solid import CarveView
+
+        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, _, r in views]
         # A part seen well enough in some view is built from part masks only: falling back to the whole
         # object in a view that sees the part too small would pull the element off the part.
-        part_seen = bool(spec.part) and any(r.part_mask.sum() >= self.min_pixels for _, r in results)
-        for view, res in results:
-            if part_seen:
-                mask = res.part_mask
-            else:
-                mask = res.part_mask if res.part_mask.sum() >= self.min_pixels else res.instance_mask
-            if spec.part and res.part_mask.sum() < self.min_pixels and res.instance_mask.sum() >= self.min_pixels:
-                log.debug("part %s/%s not segmented in %s; using the whole object", spec.obj, spec.part,
-                          view.camera.name)
-            if mask.sum() >= self.min_pixels:
-                per_view.append((mask, view.depth, view.camera))
-        if not per_view:
+        part_seen = bool(spec.part) and any(pc >= self.min_pixels for pc, _ in counts)
+        clouds, carve_views = [], []
+        for (view, pm, ok, res), (pc, ic) in zip(views, counts):
+            mask = res.part_mask if part_seen or pc >= self.min_pixels else res.instance_mask
+            if (pc if mask is res.part_mask else ic) < self.min_pixels:
+                mask = np.zeros(ok.shape, dtype=bool)  # adds no points, but its depth still carves free space
+            clouds.append(pm[mask & ok])
+            siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
+            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings))
+        if not any(len(c) for c in clouds):
             return None
         try:
-            el = build_element(element_id, spec, per_view)
-            if not spec.part:
-                el.object_cloud = el.cloud
-            elif whole:
-                from code_as_monitor.geometry import mask_cloud
-
-                el.object_cloud = mask_cloud(whole)
-            return el
+            el = build_element_from_clouds(eid, spec, clouds, carve_views, support)
         except CamError as exc:
-            log.info("element %d (%s) could not be built: %s", element_id, spec.name, exc)
+            log.info("element %d (%s) could not be built: %s", eid, spec.name, exc)
             return None
+        if spec.part and not part_seen and el.support is not None:
+            el.support = replace(el.support, part_seen=False)
+        if not spec.part or not part_seen:
+            el.object_cloud = el.cloud
+        else:
+            whole = [pm[r.instance_mask & ok] for (_, pm, ok, r), (_, ic) in zip(views, counts)
+                     if ic >= self.min_pixels]
+            try:
+                Q, vs, _ = fuse_part(whole, [], name=f"object of {spec.name!r}")
+                el.object_cloud = cap_cloud(Q, voxel=vs)
+            except CamError:
+                el.object_cloud = None
+        return el
 
     def paint(self, obs: Observation, subgoal: Subgoal) -> PaintResult:
-        """Build every element of ``subgoal`` from ``obs`` and draw the visual prompt on every view."""
+        """Build every element of ``subgoal`` from ``obs`` (one pass over each view) and draw the visual prompt."""
         t0 = time.perf_counter()
         specs = assign_element_ids(subgoal)
         text_of: dict[int, str] = {}
         for c in subgoal.constraints:
             for i in c.element_ids:
                 text_of.setdefault(i, c.text)
-        elements: list[Element] = []
-        missing: list[ElementSpec] = []
-        for eid, spec in specs.items():
-            el = self.build_element(obs, eid, spec, text_of.get(eid, ""))
-            if el is None:
-                missing.append(spec)
-            else:
-                elements.append(el)
+        built = self.build_elements(obs, specs, text_of)
+        elements = [el for el in built.values() if el is not None]
+        missing = [specs[i] for i, el in built.items() if el is None]
+        elements.sort(key=lambda e: e.id)
         images = self.draw(obs, elements)
         return PaintResult(elements, specs, images, missing, time.perf_counter() - t0)
 
@@ -148,8 +209,29 @@ class Painter:
     def draw(
         obs: Observation, elements: list[Element], stale: dict[int, np.ndarray] | None = None
     ) -> dict[str, np.ndarray]:
-        """Annotated copies of every view's RGB."""
-        return {name: draw_elements(v.rgb, v.camera, elements, stale) for name, v in obs.views.items()}
+        """Annotated copies of every view's RGB (a plain copy for a view whose camera cannot project)."""
+        return {name: v.rgb.copy() if unusable(v) else draw_elements(v.rgb, v.camera, elements, stale)
+                for name, v in obs.views.items()}
+
+
+def unusable(view: object) -> str:
+    """Why a view cannot be lifted or drawn (its camera's intrinsics or pose are invalid, or its depth does not
+    match the camera), naming the bad value; "" when it can."""
+    from code_as_monitor.core.camera import validate_intrinsics, validate_rigid
+    from code_as_monitor.geometry.backproject import check_depth
+
+    cam = getattr(view, "camera", None)
+    try:
+        if cam is None:
+            return "the view has no camera"
+        validate_intrinsics(getattr(cam, "K", None))
+        validate_rigid(getattr(cam, "T_world_cam", None), f"camera {getattr(cam, 'name', '?')!r} T_world_cam")
+        check_depth(getattr(view, "depth", None), cam)
+    except CamError as exc:
+        return str(exc)
+    except (TypeError, ValueError) as exc:  # a value numpy cannot even read as an array
+        return f"camera {getattr(cam, 'name', '?')!r}: {exc}"
+    return ""
 
 
 def require_all(result: PaintResult) -> None:

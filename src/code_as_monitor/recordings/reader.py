@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -163,14 +164,16 @@ class BagSource:
         wanted |= {t for t in (m.joint_states, m.ee_topic, m.policy, m.ground_truth) if t}
         conns = [c for c in reader.connections if c.topic in wanted]
         for index, (c, log_ns, raw) in enumerate(reader.messages(connections=conns)):
-            msg = self.ts.deserialize_cdr(raw, c.msgtype)
             topic = c.topic
-            if topic in by_topic:
+            if topic in by_topic:  # images: only the header is needed here, read from the CDR bytes
+                t_ns, frame_id = _header_of(raw) or _deserialized_header(self.ts, raw, c.msgtype)
                 for key in by_topic[topic]:
-                    stamps[key].append((stamp_ns(msg.header), index))
+                    stamps[key].append((t_ns, index))
                     if key.endswith("/color"):
-                        self._frame_ids.setdefault(streams[key][0], str(msg.header.frame_id))
-            elif topic in info_topics:
+                        self._frame_ids.setdefault(streams[key][0], frame_id)
+                continue
+            msg = self.ts.deserialize_cdr(raw, c.msgtype)
+            if topic in info_topics:
                 K, w, h = camera_info_k(msg, topic)
                 self._infos[info_topics[topic]].append((stamp_ns(msg.header), K, w, h, str(msg.header.frame_id)))
             elif topic in (m.tf, m.tf_static):
@@ -332,6 +335,23 @@ class BagSource:
             return False
         i = bisect.bisect_right([x[0] for x in self._policy], t_ns) - 1
         return self._policy[i][1] if i >= 0 else False
+
+
+def _header_of(raw: bytes | memoryview) -> tuple[int, str] | None:
+    """(stamp ns, frame_id) of a message whose first field is a ``std_msgs/Header``, read straight from
+    little-endian CDR (encapsulation 0x0001); None for anything else (the caller deserialises)."""
+    b = bytes(raw[:4096])
+    if len(b) < 16 or b[0:2] != b"\x00\x01":
+        return None
+    sec, nsec, n = struct.unpack_from("<iII", b, 4)
+    if n == 0 or 16 + n > len(b) or nsec >= 1_000_000_000:
+        return None
+    return sec * 1_000_000_000 + nsec, b[16:16 + n - 1].decode("utf-8", "replace")
+
+
+def _deserialized_header(ts: Any, raw: Any, msgtype: str) -> tuple[int, str]:
+    msg = ts.deserialize_cdr(raw, msgtype)
+    return stamp_ns(msg.header), str(msg.header.frame_id)
 
 
 class _Skip:

@@ -77,6 +77,14 @@ class Segmenter(ABC):
             PerceptionError: unknown object or part name, or a backend failure.
         """
 
+    def segment_many(
+        self, view: View, specs: list[ElementSpec], constraint_texts: list[str] | None = None
+    ) -> list[SegmentResult]:
+        """Segment several specs in one view (one result per spec, in order). The default calls
+        :meth:`segment` for each; a backend that can do them in one pass overrides it."""
+        texts = constraint_texts or [""] * len(specs)
+        return [self.segment(view, s, t) for s, t in zip(specs, texts)]
+
 
 # --- backend configs -----------------------------------------------------------------------------
 

@@ -22,26 +22,40 @@ class SimSegmenter(Segmenter):
         self.config = config or SimSegmenterConfig()
 
     def segment(self, view: View, spec: ElementSpec, constraint_text: str = "") -> SegmentResult:
+        return self.segment_many(view, [spec])[0]
+
+    def segment_many(
+        self, view: View, specs: list[ElementSpec], constraint_texts: list[str] | None = None
+    ) -> list[SegmentResult]:
+        """All specs from one pass over the id image: its ids are numbered once, each mask is a table lookup."""
         if view.seg is None or view.seg_labels is None:
             raise PerceptionError(
                 f"view {view.camera.name!r} has no ground-truth seg image; the sim segmenter needs one "
                 "(use the color or http segmenter on real images)"
             )
-        labels = view.seg_labels
+        ids, inv = np.unique(view.seg, return_inverse=True)
+        inv = inv.reshape(view.seg.shape)
+        out = []
+        for spec in specs:
+            obj_ids, part_ids = self._ids(view.seg_labels, spec)
+            inst = np.isin(ids, obj_ids)[inv]
+            part = inst.copy() if part_ids is obj_ids else np.isin(ids, part_ids)[inv]
+            out.append(SegmentResult(inst, part, spec.kind, 1.0 if part.any() else 0.0))
+        return out
+
+    @staticmethod
+    def _ids(labels: dict[int, tuple[str, str]], spec: ElementSpec) -> tuple[list[int], list[int]]:
+        """(the object's seg ids, the part's seg ids) for ``spec``; PerceptionError naming an unknown name."""
         obj_ids = [i for i, (o, _) in labels.items() if o == spec.obj]
         if not obj_ids:
             known = sorted({o for o, _ in labels.values()})
             raise PerceptionError(f"unknown object {spec.obj!r}; the scene has: {', '.join(known)}")
-        if spec.part:
-            part_ids = [i for i in obj_ids if labels[i][1] == spec.part]
-            if not part_ids:
-                parts = sorted({labels[i][1] for i in obj_ids if labels[i][1]})
-                raise PerceptionError(
-                    f"unknown part {spec.part!r} of {spec.obj!r}; its parts: {', '.join(parts) or '(none)'}"
-                )
-        else:
-            part_ids = obj_ids
-        instance = np.isin(view.seg, obj_ids)
-        part = instance if part_ids is obj_ids else np.isin(view.seg, part_ids)
-        score = 1.0 if part.any() else 0.0
-        return SegmentResult(instance, part.copy() if part is instance else part, spec.kind, score)
+        if not spec.part:
+            return obj_ids, obj_ids
+        part_ids = [i for i in obj_ids if labels[i][1] == spec.part]
+        if not part_ids:
+            parts = sorted({labels[i][1] for i in obj_ids if labels[i][1]})
+            raise PerceptionError(
+                f"unknown part {spec.part!r} of {spec.obj!r}; its parts: {', '.join(parts) or '(none)'}"
+            )
+        return obj_ids, part_ids
