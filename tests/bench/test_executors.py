@@ -18,12 +18,18 @@ from code_as_monitor.core.errors import ConfigError
 
 pytest.importorskip("pybullet")
 
-VOLATILE = ("wall_time_s", "finished_at", "video", "reproduce")  # reproduce names the results file
+VOLATILE = ("wall_time_s", "cpu_time_s", "finished_at", "video", "reproduce")  # reproduce names the results file
 
 
 def _records(path) -> dict:
     return {record_key(r): {k: v for k, v in r.items() if k not in VOLATILE}
             for r in read_results(path) if r["kind"] == "episode"}
+
+
+def test_default_workers_are_the_usable_cores():
+    want = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert LocalExecutorConfig().n_workers() == want and RayExecutorConfig().n_workers() == want
+    assert LocalExecutorConfig(workers=3).n_workers() == 3
 
 
 def test_executor_registry():

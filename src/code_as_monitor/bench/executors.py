@@ -53,7 +53,7 @@ class ExecutorConfig(Choice):
         check_count(type(self).__name__, "workers", self.workers, 0)
 
     def n_workers(self) -> int:
-        return self.workers or max(1, os.cpu_count() or 1)
+        return self.workers or usable_cpus()
 
 
 @ExecutorConfig.register("local")
@@ -76,6 +76,16 @@ class RayExecutorConfig(ExecutorConfig):
                 self.address == "auto" or re.fullmatch(r"(ray://)?[A-Za-z0-9_.\-\[\]:]+:\d{1,5}", self.address)):
             raise ConfigError(f"RayExecutorConfig.address must be auto, host:port or ray://host:port, "
                               f"got {self.address!r}")
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the platform has one, e.g. a container
+    pinned to some cores of a larger host), else the machine's count: one episode per usable core keeps
+    them all busy without oversubscribing them."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
 
 
 def require_ray() -> Any:
