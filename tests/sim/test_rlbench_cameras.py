@@ -15,8 +15,10 @@ from code_as_monitor.sim.env import make_env
 from code_as_monitor.sim.world import WorldConfig
 
 
-def test_wrist_camera_follows_the_hand_and_matches_its_rendering() -> None:
-    with make_env("screw-bulb", seed=0, noise=0.0, world_config=WorldConfig(width=160, height=120)) as env:
+@pytest.mark.parametrize("defer", [False, True])
+def test_wrist_camera_follows_the_hand_and_matches_its_rendering(defer: bool) -> None:
+    cfg = WorldConfig(width=160, height=120, defer_render=defer)  # deferred: pose fixed when observed
+    with make_env("screw-bulb", seed=0, noise=0.0, world_config=cfg) as env:
         w, pol = env.world, env.policy
         before = w.observe().views["wrist"].camera.T_world_cam
         pol.start(env.plan[0])
