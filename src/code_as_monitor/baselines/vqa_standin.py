@@ -26,6 +26,9 @@ colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane 
   (its pixels, laid on a horizontal plane, as round as a level square's: potlevel)? is the lid's long
   image axis tilted past the pour angle with the spout below the handle (pourtilt, draintilt)? is the
   spout blob above the cup blob (spoutover)?
+- the RLBench-style tasks (front view; rules in :mod:`~code_as_monitor.baselines.vqa_standin_rlbench`):
+  the block in the drawer's blue box, the bulb's white neck hidden under the red ball, a lever's blob lying
+  sideways (turned), the cube inside the red target's box, the brown dirt pixels in the orange pan's box.
 
 Inputs it may use: ``view.rgb`` and ``view.camera`` (intrinsics/extrinsics of the chosen view) and
 the robot's proprioceptive tip position (``obs.robot.ee_points["tip"]``), projected into the image
@@ -47,6 +50,7 @@ import numpy as np
 
 from code_as_monitor.baselines.vqa_standin_drawer import DrawerRules
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
+from code_as_monitor.baselines.vqa_standin_rlbench import RLBenchRules
 from code_as_monitor.baselines.vqa_standin_tea import TeaRules
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
@@ -69,6 +73,9 @@ HSV_RANGES: dict[str, list[tuple[int, ...]]] = {
     "brown": [(12, 17, 110, 40, 190)],  # the drawer cabinet's body (H ~14, S ~145, V 80..140)
     "brass": [(19, 26, 150, 60)],  # the drawer's handle bar (H ~22, S ~210; its shaded face V ~130)
     "pothandle": [(12, 17, 160, 40, 210)],  # the teapot's handle fin (S ~185, V 60..110; the tea's S ~230)
+    "dirt": [(13, 17, 160, 20, 182)],  # sweep-to-dustpan's dirt (H ~15, S ~170; the pan's orange S ~215)
+    "pan": [(11, 17, 205, 60)],  # the dustpan's floor and walls (H 12..15, S ~215)
+    "white": [(0, 179, 0, 170, 30)],  # the bulb's neck (S ~6, V ~235)
 }
 # Also used by the gripper tasks: "blue" (pen body), "yellow" (pen tip), "green" (holder body), "red"
 # (book cover); by the drawer: "blue" (the drawer's front plate and tray).
@@ -172,6 +179,8 @@ class VQAStandin:
             jaw = None if fl is None or fr is None else float(np.linalg.norm(np.asarray(fl) - np.asarray(fr)))
             grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z, jaw)
         got = DrawerRules().answer(key, constraint, view, grip)
+        if got is None:
+            got = RLBenchRules().answer(key, constraint, view, grip)
         if got is None:
             got = TeaRules().answer(key, constraint, view, grip)
         if got is None:
