@@ -146,3 +146,24 @@ def test_noisy_failures_carry_ground_truth(task: str) -> None:
             fails += 1
             assert events, (seed, res.reason)
     assert fails >= 1
+
+
+@pytest.mark.parametrize(("task", "family", "kind"), [("screw-bulb", "bulb", "bulbjaw"),
+                                                      ("turn-tap", "tap", "lever_jaw")])
+def test_the_jaws_read_closed_on_the_part_as_the_kb_expects(task: str, family: str, kind: str) -> None:
+    """The jaw opening (proprioception) after the grasp is what the part's own width gives (a ball measured by its
+    radius, not its bounding box), inside the kb's closed-on-it range; open, it is above that range."""
+    from code_as_monitor.vlm.kb.registry import family as kb_family
+
+    th = kb_family(family).thresholds[kind]
+
+    def jaw(w: Any) -> float:
+        f = w.robot_state().ee_points
+        return float(np.linalg.norm(f["finger_left"] - f["finger_right"]))
+
+    with make_env(task, seed=0, noise=0.0, world_config=WorldConfig(width=64, height=48)) as env:
+        assert jaw(env.world) > th["max_jaw"]
+        env.policy.start(env.plan[0])
+        while not env.policy.done:
+            env.policy.step()
+        assert th["min_jaw"] <= jaw(env.world) <= th["max_jaw"]

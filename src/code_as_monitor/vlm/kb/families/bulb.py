@@ -44,9 +44,9 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # grasp, upon: the bulb's centre within 3 cm of the grasp point: the jaws close on a 5 cm ball, whose
     # painted centre (from its visible half) sits up to 1.5 cm off its true centre.
     "bulbgrip": {"max_dist": 0.03},
-    # grasp, upon: the jaws closed on the ball: 3 to 7 cm apart (on the 5 cm ball 5 cm; closed on nothing 0,
-    # open 8 cm).
-    "bulbjaw": {"min_jaw": 0.03, "max_jaw": 0.07},
+    # grasp, upon: the jaws closed on the ball: 3 to 7.5 cm apart (on the 5 cm ball 5 cm plus the pads, 1 cm a
+    # side: 7 cm; closed on nothing 0; open 8 cm: the upper bound halfway between held and open).
+    "bulbjaw": {"min_jaw": 0.03, "max_jaw": 0.075},
     # screw, during: the bulb stays on its socket: within 2 cm of the socket sideways (it is on its thread)
     # and not more than 1 cm higher than when the screw began (it only goes down as it turns in).
     "bulbseated": {"max_off": 0.02, "max_rise": 0.01},
