@@ -203,9 +203,9 @@ def test_screw_bulb_checks(make_elements, run_program, history_of) -> None:
     assert run_program(src_g, make_elements(grasp, base))["bulbjaw_lamp"][0]
     screw, src = _program("screw-bulb", 1, make_elements, base)
     start = make_elements(screw, {**base, **_robot([0.5, 0.0, 0.25])})
-    for drop, ok in ((0.014, True), (0.008, False)):
+    for above, ok in ((0.031, True), (0.037, True), (0.042, False), (0.046, False)):  # seated .. 1.5 cm out
         now = make_elements(screw, {**base, **_robot([0.5, 0.0, 0.25]),
-                                    ("lamp", "bulb"): base[("lamp", "bulb")] - [0, 0, drop]})
+                                    ("lamp", "bulb"): base[("lamp", "socket")] + np.array([0.0, 0.0, above])})
         assert run_program(src, now, history_of(start, now))["screwed_lamp"][0] is ok
 
 
