@@ -245,6 +245,115 @@ def test_lower_layers_never_import_sim_or_recordings():
     assert layer_breaks(GRAPH) == []
 
 
+DOC = ROOT / "docs" / "architecture.md"
+
+
+def documented_layers(doc: Path = DOC) -> dict[str, int]:
+    """Package -> layer number, from the table of section 2 of docs/architecture.md."""
+    import re
+
+    out = {}
+    for line in doc.read_text(encoding="utf-8").splitlines():
+        m = re.match(r"^\| (\d+) \| ([^|]+) \|", line)
+        if m:
+            for name in re.findall(r"`([\w.]+)`", m.group(2)):
+                out[name.removeprefix(f"{PACKAGE}.")] = int(m.group(1))
+    return out
+
+
+def _package_of(module: str) -> str:
+    return module.split(".")[1] if module.count(".") else ""
+
+
+def test_documented_layers_name_every_package():
+    packages = {_package_of(m) for m in GRAPH.files} - {""}
+    assert packages == set(documented_layers())
+
+
+def test_imports_only_point_down_the_layers():
+    """An import between two packages goes to a strictly lower layer of the documented table."""
+    layer = documented_layers()
+    up = [f"{a} -> {b}" for a, targets in GRAPH.all_edges().items() for b in sorted(targets)
+          if _package_of(a) and _package_of(b) and _package_of(a) != _package_of(b)
+          and layer[_package_of(b)] >= layer[_package_of(a)]]
+    assert up == []
+
+
+def test_paths_named_in_the_architecture_doc_exist():
+    import re
+
+    text = DOC.read_text(encoding="utf-8")
+    named = set(re.findall(r"(?<![\w/.])((?:src|tests|benchmarks)/[\w/]+\.py)", text))
+    packages = "|".join(documented_layers())
+    named |= {f"src/{PACKAGE}/{p}" for p in re.findall(r"`((?:" + packages + r")/[\w/]+\.py)", text)}
+    assert named, "the doc names no file?"
+    missing = sorted(p for p in named if not (ROOT / p).is_file())
+    assert missing == [], f"docs/architecture.md names files that do not exist: {missing}"
+
+
+KB = "code_as_monitor.vlm.kb"
+FAMILIES = f"{KB}.families"
+
+
+def _registered_families() -> tuple[str, ...]:
+    from code_as_monitor.vlm.kb.registry import FAMILY_MODULES
+
+    return FAMILY_MODULES
+
+
+def _family_module_of(module: str) -> str | None:
+    """The registered family a module under ``families/`` belongs to: itself, or the family its name extends
+    (``stack_goal`` -> ``stack``); None when it belongs to none."""
+    short = module.rpartition(".")[2]
+    if short in _registered_families():
+        return short
+    owners = [f for f in _registered_families() if short.startswith(f + "_")]
+    return owners[0] if len(owners) == 1 else None
+
+
+def _family_files() -> list[str]:
+    return sorted(m for m in GRAPH.files if m.startswith(FAMILIES + "."))
+
+
+def test_kb_every_family_module_is_registered_or_one_familys_helper():
+    """A family is one module plus its line in ``registry.FAMILY_MODULES`` (a part of it kept in a module of its
+    own is named ``<family>_<what>`` and belongs to that family only)."""
+    unowned = [m for m in _family_files() if _family_module_of(m) is None]
+    assert unowned == [], f"modules under vlm/kb/families/ that are no registered family nor one's helper: {unowned}"
+    missing = [f for f in _registered_families() if f"{FAMILIES}.{f}" not in GRAPH.files]
+    assert missing == [], f"registered in FAMILY_MODULES without a module: {missing}"
+
+
+def test_kb_families_do_not_import_each_other():
+    """What two families share lives in ``vlm/kb/shared`` (or the grammar), not in one of them."""
+    crossings = []
+    for m in _family_files():
+        for target in sorted(GRAPH.all_edges()[m]):
+            if target.startswith(FAMILIES + ".") and _family_module_of(target) != _family_module_of(m):
+                crossings.append(f"{m} -> {target}")
+    assert crossings == [], (f"a kb family imports another family ({crossings}); move what they share to "
+                             f"vlm/kb/shared (the gripper's finger elements are in vlm.kb.shared.grip)")
+
+
+def test_kb_families_are_loaded_by_name_only():
+    """Nothing outside ``families/`` imports a family: the registry loads them by name, so a new family touches
+    its module and one registration line."""
+    importers = [f"{src} -> {t}" for src, targets in GRAPH.all_edges().items() if not src.startswith(FAMILIES)
+                 for t in targets if t.startswith(FAMILIES + ".")]
+    assert importers == []
+
+
+@pytest.mark.parametrize("name", _registered_families())
+def test_kb_family_module_holds_its_rules(name):
+    """The family's rule (plan and recovery), thresholds and templates are its module's."""
+    import importlib
+
+    fam = importlib.import_module(f"{FAMILIES}.{name}").FAMILY
+    assert fam.next_subgoal.__module__ == f"{FAMILIES}.{name}"
+    assert fam.thresholds and fam.templates
+    assert all(f.__module__.startswith((f"{FAMILIES}.{name}", f"{KB}.shared.")) for f in fam.templates.values())
+
+
 @pytest.mark.parametrize(
     ("source", "expected"),
     [
