@@ -29,6 +29,7 @@ def _demo(tmp: Path, seed: int, extra: list[str]) -> tuple[int, str]:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(2 * 11 * 900)
 @pytest.mark.parametrize("extra", [[], ["--tracker", "sim"]], ids=["default-perception", "oracle-tracker"])
 def test_demo_succeeds_on_demo_seed_and_9_of_10_others(tmp_path: Path, extra: list[str]) -> None:
     rc, last = _demo(tmp_path, DEMO_SEED, extra)
