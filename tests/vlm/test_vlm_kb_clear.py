@@ -47,7 +47,8 @@ def test_a_block_lying_on_the_target_blocks_the_pick(make_elements, run_program,
 def test_blocked_feedback_clears_the_blocker_then_rebuilds():
     gen, sg = _first_pick()
     objs = infer_objects(STACK)
-    fb = "failure: clear_red_block: blue_block rests on top of red_block (offset 0.005 m): it blocks the tower, clear it first"
+    fb = ("failure: clear_red_block: blue_block rests on top of red_block (offset 0.005 m): it blocks the tower, "
+          "clear it first")
     take = gen.next_subgoal(STACK, IMG, objs, sg, fb)
     assert take.action.to_dict() == {"skill": "pick", "args": {"obj": "blue_block"}}
     assert any(c.id == "held_blue_block" for c in take.constraints)
