@@ -39,16 +39,12 @@ invisible, a lever turned towards or away from the camera looks closed, and the 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from code_as_monitor.baselines.vqa_pixels import VQAAnswer
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, _mask
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import View
-
-if TYPE_CHECKING:
-    from code_as_monitor.baselines.vqa_standin import VQAAnswer
 
 COLORS: dict[str, tuple[str, ...]] = {"block": ("green",), "bulb": ("red",), "socket": ("brass",),
                                       "left_handle": ("red",), "right_handle": ("blue",), "shaft": ("wood",),
@@ -127,8 +123,7 @@ class RLBenchRules:
     """Answers the RLBench-style families' constraints on one front image (see the module docstring)."""
 
     def answer(self, key: str, c: Constraint, view: View, g: Gripper) -> VQAAnswer | None:
-        from code_as_monitor.baselines.vqa_standin import VQAAnswer as A
-
+        A = VQAAnswer
         item = _item(c) if key in KEYS else None
         if item is None:
             return None
