@@ -28,12 +28,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.vlm.grammar import Instruction
-from code_as_monitor.vlm.kb.families.drawer import FINGER_LEFT, FINGER_RIGHT
 from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
-from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, part_spec
+from code_as_monitor.vlm.kb.shared.grip import FINGER_LEFT, FINGER_RIGHT, GRIP_TIP, part_spec
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 THREAD_DROP = 0.015

@@ -35,12 +35,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.vlm.grammar import Instruction
-from code_as_monitor.vlm.kb.families import drawer
 from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice, whole
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
-from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec
+from code_as_monitor.vlm.kb.shared.grip import FINGER_LEFT, FINGER_RIGHT, GRIP_TIP, in_gripper, part_spec
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 PUT_OPEN = 0.10
@@ -48,6 +47,14 @@ PUT_OPEN = 0.10
 little off (the open part of the tray is what the drawer came out)."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
+    # handle grasp, as the drawer family's (vlm/kb/families/drawer.py, where the reasons are): the handle stays
+    # put (2 cm) while the jaws close; its centre within 3 cm of the grasp point; the jaws closed on the 1.2 cm
+    # bar, 1 to 5 cm apart (open 8 cm, on nothing 0).
+    "put_still": {"max_disp": 0.02},
+    "put_handle_grip": {"max_dist": 0.03},
+    "put_jaw_shut": {"min_jaw": 0.01, "max_jaw": 0.05},
+    # pull, upon: released, the grasp point 6 cm from the handle (as the drawer family's).
+    "put_pull_freed": {"release_dist": 0.06},
     # pull, during / upon: as the drawer family's, with PUT_OPEN (see above).
     "put_handled": {"max_dist": 0.03, "min_open": PUT_OPEN},
     "put_pulled": {"min_open": PUT_OPEN},
@@ -77,8 +84,26 @@ def _thr(kind: str) -> dict[str, float]:
     return dict(THRESHOLDS[kind])
 
 
-PULL_DISTANCE = round(drawer.DRAWER_OPEN + 0.02, 3)
-"""The pull of the ``drawer`` family (17 cm): more than the block needs, as a learned policy would pull."""
+PULL_DISTANCE = 0.17
+"""The pull of the ``drawer`` family (its 15 cm opening plus 2 cm): more than the block needs, as a learned policy
+would pull."""
+
+
+def grasp_handle(cab: str) -> list[dict[str, Any]]:
+    """``grasp`` the handle, as the drawer family's (same ids, so the same check templates): during (proactive) the
+    handle stays put; upon, it is at the grasp point and the jaws are closed."""
+    st, gr, js = _thr("put_still"), _thr("put_handle_grip"), _thr("put_jaw_shut")
+    handle = part_spec(cab, "handle", "point", "handle")
+    return [
+        constraint(f"drawerstill_{cab}", f"the handle of {nice(cab)} stays where it is (within {st['max_disp'] * 100:.0f} "
+                   "cm) while the gripper approaches and closes; if the drawer moves, the jaws close on nothing",
+                   "during", True, st, [handle]),
+        constraint(f"handlegrip_{cab}", f"the handle of {nice(cab)} is between the fingers: its centre within "
+                   f"{gr['max_dist'] * 100:.0f} cm of the grasp point", "upon", False, gr, [GRIP_TIP, handle]),
+        constraint(f"jawshut_{cab}", f"the gripper's jaws are closed on the handle of {nice(cab)}: their opening "
+                   f"between {js['min_jaw'] * 100:.1f} and {js['max_jaw'] * 100:.0f} cm", "upon", False, js,
+                   [FINGER_LEFT, FINGER_RIGHT]),
+    ]
 
 
 @dataclass(frozen=True)
@@ -153,7 +178,7 @@ def _tray(cab: str) -> list[dict[str, str]]:
 
 def pull(cab: str) -> list[dict[str, Any]]:
     """``pull``: the drawer family's checks with ``PUT_OPEN``."""
-    hd, pu, fr = _thr("put_handled"), _thr("put_pulled"), drawer.THRESHOLDS["drawer_freed"]
+    hd, pu, fr = _thr("put_handled"), _thr("put_pulled"), _thr("put_pull_freed")
     h, f, b = _tray(cab)
     return [
         constraint(f"handled_{cab}", f"the handle of {nice(cab)} stays in the gripper (within {hd['max_dist'] * 100:.0f} "
@@ -273,7 +298,7 @@ REGRASP_ITEM = ("steady", "grasped", "lifted", "gripped", "carriedin", "overtray
 
 def next_subgoal(goal: PutGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
     cab, item = goal.cabinet, goal.item
-    gh = answer(f"grasp the handle of {nice(cab)}", "grasp", {"obj": cab, "part": "handle"}, drawer.grasp(cab), "")
+    gh = answer(f"grasp the handle of {nice(cab)}", "grasp", {"obj": cab, "part": "handle"}, grasp_handle(cab), "")
     p = answer(f"pull the drawer of {nice(cab)} open by {PULL_DISTANCE * 100:.0f} cm", "pull",
                {"obj": cab, "distance": PULL_DISTANCE}, pull(cab), "")
     gi = answer(f"grasp {nice(item)}", "grasp", {"obj": item}, grasp_item(item), "")
