@@ -56,12 +56,13 @@ def test_a_turned_lever_lies_sideways(side: str) -> None:
 
     with make_env("turn-tap", seed=0, noise=0.0, instruction=f"turn the {side} tap") as env:
         goal = tap.FAMILY.understand(_parse(f"turn the {side} tap"), env.world.objects)
-        c = _by_key(tap.turn(goal))["turned"]
-        assert not _ask(c, env)
+        c, other = _by_key(tap.turn(goal))["turned"], _by_key(tap.turn(goal))["otherstill"]
+        assert not _ask(c, env) and _ask(other, env)
         part = f"{side}_handle"
         pb.resetJointState(env.world.body_of("tap"), env.task.joints[part], env.task.turn_sign(part) * np.pi / 2,
                            0.0, physicsClientId=env.world.client)
         assert _ask(c, env)
+        assert _ask(other, env)  # the named lever turned: the other one still looks closed
 
 
 def test_cube_on_the_target() -> None:

@@ -146,10 +146,8 @@ class RLBenchRules:
             if key == "steady" and g.uv is not None and g.z <= 0.03 and not near:
                 return A(False, f"the fingers are down at the table but the {name} is not between them")
             return A(True, f"the {name} is where the picture shows it (one image shows no motion)")
-        if key == "otherstill":
-            other = "right_handle" if item == "left_handle" else "left_handle"
-            so = _shape(rgb, other)
-            moved = so is not None and so[3] >= 0.7
+        if key == "otherstill":  # the constraint's own lever is the other one (the one not to be turned)
+            moved = turned
             return A(not moved, f"the other lever {'looks turned' if moved else 'looks closed'}")
         if key in ("grasped", "gripped", "levergrip", "bulbgrip"):
             return A(near, f"the {name} is {'' if near else 'not '}between the fingers")

@@ -41,9 +41,11 @@ TURNS = 1.0
 """Turns to screw the bulb in (it stands one turn out of its socket)."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
-    # grasp, upon: the bulb's centre within 3 cm of the grasp point: the jaws close on a 5 cm ball, whose
-    # painted centre (from its visible half) sits up to 1.5 cm off its true centre.
-    "bulbgrip": {"max_dist": 0.03},
+    # grasp, upon: the bulb's centre within 4 cm of the grasp point: the jaws close on a 5 cm ball anywhere within
+    # its 2.5 cm radius, and its painted centre (from its visible half) sits up to 1.5 cm off its true centre (at
+    # 3 cm a held bulb was flagged at 3.1 cm in the benchmark). A grasp that misses the ball closes the jaws on
+    # nothing, which ``bulbjaw`` sees.
+    "bulbgrip": {"max_dist": 0.04},
     # grasp, upon: the jaws closed on the ball: 3 to 7.5 cm apart (on the 5 cm ball 5 cm plus the pads, 1 cm a
     # side: 7 cm; closed on nothing 0; open 8 cm: the upper bound halfway between held and open).
     "bulbjaw": {"min_jaw": 0.03, "max_jaw": 0.075},
