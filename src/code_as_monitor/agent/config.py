@@ -119,11 +119,12 @@ class MonitorConfig(AgentConfig):
 
 
 def build_monitor(config: MonitorConfig, on_event: Callable[..., Any] | None = None, on_frame: Any = None,
-                  on_prompt: Any = None, backend: Any = None) -> Monitor:
+                  on_prompt: Any = None, backend: Any = None, skills: dict[str, str] | None = None) -> Monitor:
     """Build Code-as-Monitor from ``config``: backend -> planner and coder, segmenter -> painter,
     tracker, a sandboxed runtime and element histories. ``backend``: an already built backend to use
     instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory
-    was made). The monitor owns the runtime's worker; call :meth:`Monitor.close`."""
+    was made). ``skills``: the policy's skills, name -> description, as the planner is told them (None:
+    every simulator skill). The monitor owns the runtime's worker; call :meth:`Monitor.close`."""
     from code_as_monitor.agent.code_checker import CodeChecker
     from code_as_monitor.agent.monitor import Monitor
     from code_as_monitor.monitor.runtime import MonitorRuntime
@@ -141,7 +142,7 @@ def build_monitor(config: MonitorConfig, on_event: Callable[..., Any] | None = N
 
     if backend is None:
         backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
-    generator = ConstraintGenerator(backend)
+    generator = ConstraintGenerator(backend, skills=skills)
     coder = MonitorCoder(backend, usage=generator.usage)
     painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
     tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))

@@ -142,6 +142,7 @@ def run_closed_loop(
     from code_as_monitor.agent.drive import drive
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
+    from code_as_monitor.vlm.skills import skill_table
 
     wall0 = time.perf_counter()
     out = RunArtefacts(run_dir, cfg.camera_hz if cfg.video else None, on_event)
@@ -156,7 +157,8 @@ def run_closed_loop(
             if on_env is not None:
                 on_env(env)
             monitor = build_monitor(cfg.monitor_config(env.task.config.time_limit), on_event=out.emit,
-                                    on_frame=out.on_frame, on_prompt=out.on_prompt, backend=backend)
+                                    on_frame=out.on_frame, on_prompt=out.on_prompt, backend=backend,
+                                    skills=skill_table(env.policy.skills))
             episode = drive(monitor, env.instruction, env.world, env.policy, on_observation=on_observation)
             result = _settle_and_evaluate(env, episode.stop_reason)
             gt_events = list(env.world.events.events)
