@@ -1,50 +1,118 @@
-"""Benchmark: benchmark episodes per hour of each method, in this process, without videos.
+"""Benchmark: episodes per hour of each benchmark method, in this process, without videos.
 
-Runs ``--episodes`` episodes (seed index 0) of every method on each ``--conditions`` cell and reports
-episodes per hour of one core (wall time of the episodes alone; the process pool of ``cam bench``
-runs one episode per core). Offline: the kb planner, and for the baselines the ``vqa-standin``
-single-image stand-in (not a VLM). Also prints frames rendered per episode for the baselines (a method
-renders only the frames it uses: open-loop none, inner-monologue at subgoal ends, doremi every k s).
+Runs ``--episodes`` episodes (seed index 0) of every method on each ``--conditions`` cell, the methods
+interleaved episode by episode (so a change in the machine's load hits them alike), ``--repeats``
+times, and reports per method the median over the repeats of episodes per hour of one core: by wall
+time (what a run takes here) and by CPU time (this process and its sandbox workers: what the episode
+costs, less inflated by other load on a shared machine), the ratio of each against open-loop measured
+in the same process, and the camera images rendered per episode (a method renders only the views and
+frames it reads). Offline: the kb planner, and for the baselines the ``vqa-standin`` single-image
+stand-in (not a VLM); CaM with the ``sim`` segmenter and tracker (the protocol's options).
+
+``--estimate RESULTS.jsonl`` instead estimates the full CLIPort protocol's wall time from a results
+file of a sample of it (``cam bench --seeds 2 --episodes 4 ...``): the mean per-episode time of each
+(condition, method) cell times the protocol's episodes per cell, summed, divided by ``--workers``.
 
 Run: ``.venv/bin/python benchmarks/bench_throughput.py [--conditions stack-p0.15,rope] [--episodes 2]``.
-The last lines are machine-readable: ``episodes_per_hour <method>: <n>``.
+The last lines are machine-readable: ``name: value unit``.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
+from collections import defaultdict
 
 from code_as_monitor.bench.episode import EpisodeOptions, run_episode
-from code_as_monitor.bench.protocol import METHODS, Job
+from code_as_monitor.bench.protocol import FULL, METHODS, SUITES, Job
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and its finished children (measured here, so that the script also
+    times code whose records carry no ``cpu_time_s``: ``PYTHONPATH=<other checkout>/src``)."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def measure(methods: list[str], conds: list[str], episodes: int, repeats: int) -> dict[str, dict[str, float]]:
+    """Per method: median episodes/hour by wall and by CPU time, and mean images per episode."""
+    rates: dict[str, dict[str, list[float]]] = {m: defaultdict(list) for m in methods}
+    images: dict[str, list[float]] = defaultdict(list)
+    run_episode(Job(methods[0], conds[0], 1, 0), EpisodeOptions())  # imports and caches, not timed
+    for r in range(repeats):
+        walls: dict[str, list[float]] = defaultdict(list)
+        cpus: dict[str, list[float]] = defaultdict(list)
+        for c in conds:
+            for e in range(episodes):
+                for m in methods:
+                    cpu0 = _cpu_seconds()
+                    rec = run_episode(Job(m, c, 0, e), EpisodeOptions())
+                    if rec.get("error"):
+                        print(f"  {m} {c} e{e}: error {rec['error']}", file=sys.stderr)
+                    walls[m].append(rec["wall_time_s"])
+                    cpus[m].append(_cpu_seconds() - cpu0)
+                    if r == 0 and rec.get("images") is not None:
+                        images[m].append(rec["images"])
+        for m in methods:
+            rates[m]["wall"].append(3600.0 / statistics.fmean(walls[m]))
+            rates[m]["cpu"].append(3600.0 / statistics.fmean(cpus[m]))
+            print(f"repeat {r}: {m:16s} {statistics.fmean(walls[m]):6.2f} s wall, "
+                  f"{statistics.fmean(cpus[m]):6.2f} s cpu per episode", flush=True)
+    return {m: {"wall": statistics.median(v["wall"]), "cpu": statistics.median(v["cpu"]),
+                "images": statistics.fmean(images[m]) if images[m] else float("nan")} for m, v in rates.items()}
+
+
+def estimate(path: str, workers: int, seeds: int, episodes: int) -> list[tuple[str, float, str]]:
+    """Full-protocol minutes estimated from a sample results file (see the module doc)."""
+    from code_as_monitor.bench.runner import episode_records, read_results
+
+    cells: dict[tuple[str, str], dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    for r in episode_records(read_results(path)):
+        cells[(r["condition"], r["method"])]["wall"].append(r["wall_time_s"])
+        if r.get("cpu_time_s") is not None:
+            cells[(r["condition"], r["method"])]["cpu"].append(r["cpu_time_s"])
+    n = seeds * episodes
+    out: list[tuple[str, float, str]] = []
+    for kind in ("wall", "cpu"):
+        per_method: dict[str, float] = defaultdict(float)
+        for (cond, method), v in sorted(cells.items()):
+            if cond in SUITES["cliport"] and v[kind]:
+                per_method[method] += statistics.fmean(v[kind]) * n / 60.0
+        if not per_method:
+            continue
+        for m, minutes in per_method.items():
+            print(f"{kind}: {m:16s} {minutes:7.1f} core-min over the protocol")
+        out.append((f"full_protocol_estimate_{kind}", sum(per_method.values()) / workers, "min"))
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--conditions", default="stack-p0.15", help="comma list of condition ids")
     ap.add_argument("--episodes", type=int, default=2, help="episodes per method and condition")
+    ap.add_argument("--repeats", type=int, default=3, help="rounds over every episode (median reported)")
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--estimate", default=None, help="a sample's results file: estimate the full protocol")
+    ap.add_argument("--workers", type=int, default=2, help="episodes at once for --estimate")
     args = ap.parse_args(argv)
-    conds = [c for c in args.conditions.split(",") if c]
-    rates = {}
-    for m in [x for x in args.methods.split(",") if x]:
-        walls, frames, sims = [], [], []
-        for c in conds:
-            for e in range(args.episodes):
-                rec = run_episode(Job(m, c, 0, e), EpisodeOptions())
-                if rec.get("error"):
-                    print(f"  {m} {c} e{e}: error {rec['error']}", file=sys.stderr)
-                walls.append(rec["wall_time_s"])
-                sims.append(rec["sim_time_s"] or 0.0)
-                frames.append(rec["frames"])
-        mean = statistics.fmean(walls)
-        rates[m] = 3600.0 / mean
-        fr = [f for f in frames if f is not None]
-        print(f"{m:16s} {mean:6.2f} s wall/episode  {statistics.fmean(sims):6.2f} s sim/episode  "
-              f"frames/episode {statistics.fmean(fr) if fr else float('nan'):5.1f}")
-    for m, r in rates.items():
-        print(f"episodes_per_hour {m}: {r:.0f}")
+    if args.estimate:
+        figures = estimate(args.estimate, args.workers, *FULL)
+    else:
+        methods = [x for x in args.methods.split(",") if x]
+        res = measure(methods, [c for c in args.conditions.split(",") if c], args.episodes, args.repeats)
+        figures = []
+        ref = res.get("open-loop")
+        for m, r in res.items():
+            print(f"{m:16s} images/episode {r['images']:6.1f}")
+            figures.append((f"episodes_per_hour_wall {m}", r["wall"], "episodes/h"))
+            figures.append((f"episodes_per_hour_cpu {m}", r["cpu"], "episodes/h"))
+            if ref is not None and m != "open-loop":
+                figures.append((f"ratio_vs_open_loop_wall {m}", r["wall"] / ref["wall"], "x"))
+                figures.append((f"ratio_vs_open_loop_cpu {m}", r["cpu"] / ref["cpu"], "x"))
+    for name, value, unit in figures:
+        print(f"{name}: {value:.3g} {unit}")
     return 0
 
 

@@ -1,9 +1,14 @@
 """Simulator speed: sim-seconds per wall-second for stack-in-order with two 320x240 views at 10 Hz,
-and the render time per view for each available renderer.
+and the render time per view for each renderer, robot visual, image size and segmentation flag.
 
-    .venv/bin/python benchmarks/sim_speed.py [--runs 3]
+    .venv/bin/python benchmarks/sim_speed.py [--runs 3] [--renders 15]
 
-Ends with one line per figure: ``name: value unit``.
+The episode figures: every frame's views rendered (``observe(eager=True)``, what a tracker that reads
+every frame costs), the views observed but never read (deferred views: no render, what the ``sim``
+tracker costs) and no views at all. The render figures are CPU milliseconds per 320x240 view (median),
+so other load on a shared machine inflates them less than wall time; each set is measured in the same
+process and the ratios are against ``tiny`` with the detailed robot mesh. Ends with one line per
+figure: ``name: value unit``.
 """
 
 from __future__ import annotations
@@ -15,39 +20,57 @@ import time
 from code_as_monitor.sim import WorldConfig, make_env
 
 
-def episode_factor(render: bool, seed: int) -> float:
-    """Sim-seconds per wall-second of one undisturbed open-loop stack-in-order episode."""
-    env = make_env("stack-in-order", seed=seed, world_config=WorldConfig(width=320, height=240, camera_hz=10.0))
+def episode_factor(mode: str, seed: int, robot_visual: str = "mesh") -> float:
+    """Sim-seconds per wall-second of one undisturbed open-loop stack-in-order episode; ``mode``:
+    ``eager`` (render every frame), ``deferred`` (observe, read no image) or ``none`` (no views)."""
+    cfg = WorldConfig(width=320, height=240, camera_hz=10.0, robot_visual=robot_visual)
+    env = make_env("stack-in-order", seed=seed, world_config=cfg, disturbed=False)
     w = env.world
+
+    def observe() -> None:
+        w.observe(render=mode != "none", eager=mode == "eager")
+
     t0 = time.perf_counter()
-    w.observe(render=render)
+    observe()
     for action in env.plan:
         env.policy.start(action)
         while not env.policy.done:
             env.policy.step()
             if w.frame_due():
-                w.observe(render=render)
+                observe()
     wall = time.perf_counter() - t0
     sim = w.t
     env.close()
     return sim / wall
 
 
-def render_ms(renderer: str, n: int) -> tuple[str, float] | None:
-    """(actual renderer, median ms per 320x240 view) or None when ``renderer`` is unavailable."""
-    env = make_env("stack-in-order", seed=0, world_config=WorldConfig(renderer=renderer))
+def render_ms(renderer: str, n: int, robot_visual: str = "mesh", size: tuple[int, int] = (320, 240),
+              seg: bool = True) -> float | None:
+    """Median CPU ms per view of the stack scene (arm in view, mid-pick), or None when ``renderer`` is
+    unavailable. ``seg=False`` asks PyBullet for no segmentation mask."""
+    import pybullet as pb
+
+    cfg = WorldConfig(renderer=renderer, width=size[0], height=size[1], robot_visual=robot_visual)
+    env = make_env("stack-in-order", seed=0, world_config=cfg, disturbed=False)
     try:
         if env.world.renderer != renderer:
             return None
-        labels = env.world.seg_labels()
+        env.policy.start(env.plan[0])
+        for _ in range(30):  # the arm reaches into the workspace
+            env.policy.step()
+        r = pb.ER_BULLET_HARDWARE_OPENGL if renderer == "egl" else pb.ER_TINY_RENDERER
+        flags = pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX if seg else pb.ER_NO_SEGMENTATION_MASK
         times = []
         for cam in env.world.cameras:
-            cam.render(labels)
+            s = cam.spec
+            args = dict(width=s.width, height=s.height, viewMatrix=cam._view, projectionMatrix=cam._proj,
+                        renderer=r, flags=flags, shadow=0, physicsClientId=env.world.client)
+            pb.getCameraImage(**args)
             for _ in range(n):
-                t0 = time.perf_counter()
-                cam.render(labels)
-                times.append((time.perf_counter() - t0) * 1000)
-        return renderer, statistics.median(times)
+                t0 = time.process_time()
+                pb.getCameraImage(**args)
+                times.append((time.process_time() - t0) * 1000)
+        return statistics.median(times)
     finally:
         env.close()
 
@@ -55,20 +78,31 @@ def render_ms(renderer: str, n: int) -> tuple[str, float] | None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3, help="episodes per figure (median reported)")
-    ap.add_argument("--renders", type=int, default=15, help="renders per view per renderer")
+    ap.add_argument("--renders", type=int, default=15, help="renders per view per configuration")
     args = ap.parse_args()
     figures: list[tuple[str, float, str]] = []
-    for render in (True, False):
-        vals = [episode_factor(render, seed) for seed in range(args.runs)]
-        label = "sim_realtime_factor" if render else "sim_realtime_factor_no_render"
+    for label, mode, visual in (("sim_realtime_factor", "eager", "mesh"),
+                                ("sim_realtime_factor_hull", "eager", "hull"),
+                                ("sim_realtime_factor_deferred", "deferred", "mesh"),
+                                ("sim_realtime_factor_no_render", "none", "mesh")):
+        vals = [episode_factor(mode, seed, visual) for seed in range(args.runs)]
         print(f"{label}: runs {[round(v, 2) for v in vals]}")
         figures.append((label, statistics.median(vals), "x"))
-    for renderer in ("tiny", "egl"):
-        r = render_ms(renderer, args.renders)
-        if r is None:
-            print(f"renderer {renderer}: not available")
+    ref = render_ms("tiny", args.renders)
+    assert ref is not None
+    figures.append(("render_tiny_320x240", ref, "ms"))
+    for name, kw in (("render_tiny_hull_320x240", {"robot_visual": "hull"}),
+                     ("render_tiny_noseg_320x240", {"seg": False}),
+                     ("render_tiny_640x480", {"size": (640, 480)}),
+                     ("render_tiny_160x120", {"size": (160, 120)}),
+                     ("render_egl_320x240", {"renderer": "egl"})):
+        kw = dict(kw)
+        ms = render_ms(str(kw.pop("renderer", "tiny")), args.renders, **kw)  # type: ignore[arg-type]
+        if ms is None:
+            print(f"{name}: renderer not available")
             continue
-        figures.append((f"render_{renderer}_320x240", r[1], "ms"))
+        figures.append((name, ms, "ms"))
+        figures.append((name.replace("render_", "render_ratio_"), ms / ref, "x"))
     for name, value, unit in figures:
         print(f"{name}: {value:.2f} {unit}")
 

@@ -18,12 +18,18 @@ from code_as_monitor.core.errors import ConfigError
 
 pytest.importorskip("pybullet")
 
-VOLATILE = ("wall_time_s", "finished_at", "video", "reproduce")  # reproduce names the results file
+VOLATILE = ("wall_time_s", "cpu_time_s", "finished_at", "video", "reproduce")  # reproduce names the results file
 
 
 def _records(path) -> dict:
     return {record_key(r): {k: v for k, v in r.items() if k not in VOLATILE}
             for r in read_results(path) if r["kind"] == "episode"}
+
+
+def test_default_workers_are_the_usable_cores():
+    want = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert LocalExecutorConfig().n_workers() == want and RayExecutorConfig().n_workers() == want
+    assert LocalExecutorConfig(workers=3).n_workers() == 3
 
 
 def test_executor_registry():
@@ -81,23 +87,26 @@ def _alive(procs: dict[int, str]) -> list[int]:
     return [pid for pid, start in procs.items() if pid in table and table[pid][1] == start]
 
 
+def _finished(results) -> int:
+    return results.read_text().count('"kind":"episode"') if results.exists() else 0
+
+
 def _kill_bench(tmp_path, sig: int, executor: list[str], want_children: int) -> list[int]:
     """Start a tiny `cam bench`, wait for its workers, send ``sig`` to the parent alone and return the pids
     of its former descendants still alive 30 s later (killing them, so a failure leaks nothing)."""
+    results = tmp_path / "r.jsonl"
     args = [sys.executable, "-m", "code_as_monitor.cli.main", "bench", "--methods", "open-loop", "--conditions",
-            "stack-p0", "--seeds", "1", "--episodes", "8", "--no-videos", "--results", str(tmp_path / "r.jsonl"),
-            *executor]
+            "stack-p0", "--seeds", "1", "--episodes", "12", "--no-videos", "--results", str(results), *executor]
     proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     kids: dict[int, str] = {}
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:
             kids.update(_descendants(proc.pid))
-            if len(_alive(kids)) >= want_children:
+            if len(_alive(kids)) >= want_children and _finished(results) >= 1:  # workers mid-sweep
                 break
             time.sleep(0.2)
-        assert proc.poll() is None and len(_alive(kids)) >= want_children, "the bench ended before its workers ran"
-        time.sleep(1.0)
+        assert proc.poll() is None and _finished(results) >= 1, "the bench ended before it was killed"
         kids.update(_descendants(proc.pid))
         os.kill(proc.pid, sig)
         proc.wait(60)

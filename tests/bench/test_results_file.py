@@ -117,3 +117,16 @@ def test_report_names_the_versions_it_mixes(tmp_path: Path, capsys) -> None:
     out = capsys.readouterr().out
     assert "Mixed" not in out and "Code version of every record: `0.1.0+src.aaa`: 3 record(s)" in out
 
+
+
+def test_a_session_that_fails_before_its_first_line_leaves_no_file(tmp_path: Path) -> None:
+    res = tmp_path / "new" / "dirs" / "r.jsonl"
+    with pytest.raises(RuntimeError), ResultsLock(res):
+        assert res.exists()
+        raise RuntimeError("the executor could not start")
+    assert not (tmp_path / "new").exists()
+    res.parent.mkdir(parents=True)
+    res.write_text("")  # an existing (empty) file is the user's: kept
+    with ResultsLock(res):
+        pass
+    assert res.exists()

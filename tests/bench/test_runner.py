@@ -35,7 +35,7 @@ def _episodes(path) -> list[dict]:
 
 
 def _strip(r: dict) -> dict:
-    return {k: v for k, v in r.items() if k not in ("wall_time_s", "finished_at", "reproduce")}
+    return {k: v for k, v in r.items() if k not in ("wall_time_s", "cpu_time_s", "finished_at", "reproduce")}
 
 
 def test_resume_after_a_killed_run_loses_and_repeats_nothing(tmp_path):
@@ -81,7 +81,7 @@ def test_rerun_skips_everything_and_other_options_are_refused(tmp_path):
         run_bench(other, results, LocalExecutorConfig(workers=1))
     rec = _episodes(results)[0]
     for key in ("condition", "method", "seed", "episode", "episode_seed", "success", "sim_time_s", "wall_time_s",
-                "vlm", "alarms", "gt", "video", "finished_at"):
+                "cpu_time_s", "images", "vlm", "alarms", "gt", "video", "finished_at"):
         assert key in rec
 
 

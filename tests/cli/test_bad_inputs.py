@@ -11,6 +11,8 @@ A separate test mounts a real read-only file system (where it is allowed) for th
 
 from __future__ import annotations
 
+import argparse
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -24,7 +26,7 @@ from code_as_monitor.cli.main import main
 PLAN = "stack the blocks: red at the bottom, then green, then blue"
 EP = '{"kind": "episode", "condition": "stack-p0", "method": "cam", "seed": 0, "episode": 0, "success": true}'
 
-CASES: list[tuple[str, list[str], str]] = [
+CASES: list = [
     # (id, argv, a substring the one line must hold)
     ("run-seed-negative", ["run", "stack-in-order", "--seed", "-1"], "--seed"),
     ("run-seed-text", ["run", "stack-in-order", "--seed", "abc"], "--seed"),
@@ -46,6 +48,11 @@ CASES: list[tuple[str, list[str], str]] = [
     ("run-task-unknown", ["run", "no-such-task"], "no-such-task"),
     ("run-tracker-unknown", ["run", "stack-in-order", "--tracker", "foo"], "foo"),
     ("run-unknown-flag", ["run", "stack-in-order", "--frobnicate"], "--frobnicate"),
+    ("run-timeout-zero", ["run", "stack-in-order", "--timeout", "0"], "--timeout"),
+    ("run-max-tokens-zero", ["run", "stack-in-order", "--max-tokens", "0"], "--max-tokens"),
+    ("run-instruction-empty", ["run", "stack-in-order", "--instruction", " "], "--instruction"),
+    ("run-instruction-not-understood", ["run", "stack-in-order", "--instruction", "juggle three oranges"],
+     "did not understand"),
     ("demo-seed-negative", ["demo", "--seed", "-5"], "--seed"),
     ("demo-p-above-1", ["demo", "--p", "1.5"], "--p"),
     ("demo-runs-unwritable", ["demo", "--runs", "UNWRITABLE/runs"], "cannot write"),
@@ -68,6 +75,8 @@ CASES: list[tuple[str, list[str], str]] = [
     ("plan-timeout-negative", ["plan", PLAN, "--timeout", "-1"], "--timeout"),
     ("plan-cassette-missing", ["plan", PLAN, "--backend", "replay", "--cassette", "nope.jsonl"], "no such file"),
     ("plan-record-exists", ["plan", PLAN, "--record", "FILE"], "already exists"),
+    ("plan-server-option-for-kb", ["plan", PLAN, "--timeout", "5"], "openai"),
+    ("plan-max-retries-negative", ["plan", PLAN, "--backend", "openai", "--max-retries", "-1"], "--max-retries"),
     ("elements-outliers", ["elements", "--outliers", "1.5"], "--outliers"),
     ("elements-noise-nan", ["elements", "--noise-mm", "nan"], "finite"),
     ("elements-seed-negative", ["elements", "--seed", "-1"], "--seed"),
@@ -79,6 +88,7 @@ CASES: list[tuple[str, list[str], str]] = [
     ("bench-methods-empty", ["bench", "--methods", ","], "--methods"),
     ("bench-executor-unknown", ["bench", "--executor", "dask"], "dask"),
     ("bench-ray-address-without-ray", ["bench", "--ray-address", "auto"], "--executor ray"),
+    ("bench-ray-address-malformed", ["bench", "--executor", "ray", "--ray-address", "not an address"], "address"),
     ("bench-results-dir", ["bench", "--results", "DIR"], "not a regular file"),
     ("bench-results-unwritable", ["bench", "--results", "UNWRITABLE/r.jsonl"], "cannot write"),
     ("bench-results-garbage", ["bench", "--results", "GARBAGE"], "not valid JSON"),
@@ -89,6 +99,8 @@ CASES: list[tuple[str, list[str], str]] = [
     ("bench-doremi-k-zero", ["bench", "--doremi-k", "0"], "--doremi-k"),
     ("bench-tracker-unknown", ["bench", "--tracker", "nope"], "nope"),
     ("bench-backend-unknown", ["bench", "--backend", "nope"], "nope"),
+    ("bench-suite-unknown", ["bench", "--suite", "nope"], "--suite"),
+    ("bench-max-tokens-zero", ["bench", "--max-tokens", "0"], "--max-tokens"),
     ("report-dir", ["report", "DIR"], "is a directory"),
     ("report-missing", ["report", "none.jsonl"], "no such file"),
     ("report-empty", ["report", "EMPTY"], "no episode records"),
@@ -97,6 +109,23 @@ CASES: list[tuple[str, list[str], str]] = [
     ("report-fewkeys", ["report", "FEWKEYS"], "lacks"),
     ("report-out-is-file", ["report", "FEWKEYS", "--out", "FILE"], "not a directory"),
     ("report-out-unwritable", ["report", "FEWKEYS", "--out", "UNWRITABLE/rep"], "cannot write"),
+    ("record-out-exists", ["record", "stack-in-order", "--out", "FILE"], "already exists"),
+    ("record-out-unwritable", ["record", "stack-in-order", "--out", "UNWRITABLE/ep.mcap"], "cannot write"),
+    ("record-out-missing", ["record", "stack-in-order"], "--out"),
+    ("record-seed-negative", ["record", "stack-in-order", "--seed", "-1", "--out", "ep.mcap"], "--seed"),
+    ("record-depth-encoding-unknown", ["record", "stack-in-order", "--out", "ep.mcap", "--depth-encoding", "8UC3"],
+     "--depth-encoding"),
+    ("monitor-bag-missing", ["monitor", "none.mcap"], "no such file"),
+    ("monitor-topics-missing", ["monitor", "DIR", "--topics", "none.yaml"], "no such file"),
+    ("monitor-rate-unknown", ["monitor", "DIR", "--rate", "warp"], "--rate"),
+    pytest.param("monitor-bag-garbage", ["monitor", "GARBAGE"], "cannot read bag",
+                 marks=pytest.mark.skipif(importlib.util.find_spec("rosbags") is None, reason="needs the ros extra")),
+    ("reproduce-results-missing", ["reproduce", "none.jsonl", "--key", "stack-p0/cam/0/0"], "no such file"),
+    ("reproduce-results-dir", ["reproduce", "DIR", "--key", "stack-p0/cam/0/0"], "is a directory"),
+    ("reproduce-key-malformed", ["reproduce", "FEWKEYS", "--key", "stack-p0/cam/x/0"], "--key"),
+    ("reproduce-not-results", ["reproduce", "FEWKEYS", "--key", "stack-p0/cam/0/0"], "bench_start"),
+    ("reproduce-runs-unwritable", ["reproduce", "FEWKEYS", "--key", "stack-p0/cam/0/0", "--runs", "UNWRITABLE/r"],
+     "cannot write"),
     ("unknown-command", ["frobnicate"], "frobnicate"),
 ]
 
@@ -134,12 +163,26 @@ def _resolve(argv: list[str], root: Path) -> list[str]:
     return [subs.get(a, a.replace("UNWRITABLE", unwritable)) for a in argv]
 
 
+def _case(c):
+    return c.values if hasattr(c, "values") else c
+
+
+def _param(c):
+    if hasattr(c, "values"):  # a pytest.param with marks
+        return pytest.param(*c.values[1:], marks=c.marks, id=c.values[0])
+    return pytest.param(*c[1:], id=c[0])
+
+
 def test_the_table_is_large_and_covers_every_command() -> None:
+    """Every registered command has bad inputs here (a new command must add its own)."""
+    from code_as_monitor.cli.main import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     assert len(CASES) >= 40
-    assert {c[1][0] for c in CASES} >= {"run", "demo", "sim", "plan", "elements", "bench", "report"}
+    assert {_case(c)[1][0] for c in CASES} >= set(sub.choices)
 
 
-@pytest.mark.parametrize(("argv", "needle"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+@pytest.mark.parametrize(("argv", "needle"), [_param(c) for c in CASES])
 def test_bad_input_is_one_line_exit_2_nothing_left(workdir: Path, capsys: pytest.CaptureFixture[str],
                                                    argv: list[str], needle: str) -> None:
     before = _snapshot(workdir)
@@ -168,7 +211,9 @@ def _can_mount_read_only() -> bool:
     ["sim", "stack-in-order", "--video", "RO/v.mp4"],
     ["bench", "--results", "RO/r.jsonl"],
     ["report", "RO/r.jsonl"],
-], ids=["run-runs", "sim-video", "bench-results", "report-default-out"])
+    ["record", "stack-in-order", "--out", "RO/ep.mcap"],
+    ["monitor", "RO/r.jsonl", "--runs", "RO/runs"],
+], ids=["run-runs", "sim-video", "bench-results", "report-default-out", "record-out", "monitor-runs"])
 def test_read_only_file_system(tmp_path: Path, argv: list[str]) -> None:
     """The output flags on a real read-only mount (a private bind mount, invisible outside the test)."""
     ro = tmp_path / "ro"

@@ -52,7 +52,7 @@ def _garble(p: Path) -> None:
 BAD = [
     ("truncated", lambda p: (write_realsense_bag(p), _truncate(p)), [], "cannot read bag"),
     ("corrupt", _garble, [], "cannot read bag"),
-    ("missing file", lambda p: None, [], "does not exist"),
+    ("missing file", lambda p: None, [], "no such file"),
     ("size mismatch", lambda p: write_realsense_bag(p, depth_size=(80, 60)), [], "does not match colour"),
     ("unknown encoding", lambda p: write_realsense_bag(p, color_encoding="yuv422"), [], "'yuv422'"),
     ("missing topic", lambda p: write_realsense_bag(p), ["--topics", "MAP"], "has no topic '/wrist/color'"),

@@ -67,7 +67,7 @@ def test_cam_monitor_writes_a_run_dir(recorded: tuple[Path, dict[str, Any]], tmp
 def test_record_refuses_to_overwrite(recorded: tuple[Path, dict[str, Any]], tmp_path: Path, capsys) -> None:
     bag, _ = recorded
     assert main(["record", "stack-in-order", "--out", str(bag), "--runs", str(tmp_path / "r")]) == 2
-    assert "exists already" in capsys.readouterr().err
+    assert "already exists" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
 
 

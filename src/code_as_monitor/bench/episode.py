@@ -10,6 +10,7 @@ so one broken cell never stops a sweep.
 from __future__ import annotations
 
 import logging
+import os
 import time
 import traceback
 from dataclasses import asdict, dataclass, field
@@ -127,7 +128,8 @@ def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
     ep = s["episode"]
     return {"success": s["success"], "reason": s["reason"], "sim_time_s": s["sim_time_s"],
             "alarms": ep["alarms"], "gt": s["ground_truth_events"], "vlm": s["vlm"]["episode"],
-            "stop_reason": ep["stop_reason"], "replans": ep["replans"], "frames": None}
+            "stop_reason": ep["stop_reason"], "replans": ep["replans"], "frames": None,
+            "images": cfs.env.world.frames_rendered if cfs.env is not None else None}
 
 
 def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
@@ -151,7 +153,9 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
         cfs({"kind": kind, **fields})
 
     try:
-        with make_env(task, seed=seed, world_config=WorldConfig(camera_hz=opts.camera_hz), **params) as env:
+        # Views are rendered when read: DoReMi's and Inner Monologue's stand-in reads one view per question.
+        with make_env(task, seed=seed, world_config=WorldConfig(camera_hz=opts.camera_hz, defer_render=True),
+                      **params) as env:
             cfs.set_env(env)
             limit = env.task.config.time_limit
             frames = 0
@@ -187,6 +191,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
                 usage_ep = planner.usage.episode()
             result = _settle_and_evaluate(env, episode.stop_reason)
             gt = list(env.world.events.events)
+            images = env.world.frames_rendered
     finally:
         if video is not None:
             for frame in compose.tail():
@@ -194,7 +199,14 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
             video.close()
     return {"success": bool(result.success), "reason": result.reason, "sim_time_s": round(float(episode.t_end), 3),
             "alarms": [a.to_dict() for a in episode.alarms], "gt": gt, "vlm": usage_ep,
-            "stop_reason": episode.stop_reason, "replans": episode.replans, "frames": frames}
+            "stop_reason": episode.stop_reason, "replans": episode.replans, "frames": frames, "images": images}
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds of this process and its finished children (the monitor's sandbox workers): a cost
+    that other load on the machine does not inflate as it does wall time."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -> dict[str, Any]:
@@ -204,11 +216,12 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     """
     cond = condition(job.condition)
     seed = episode_seed(job.condition, job.seed, job.episode)
-    wall0 = time.perf_counter()
+    wall0, cpu0 = time.perf_counter(), _cpu_seconds()
     cfs = _Counterfactuals(opts)
     rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
                            "episode": job.episode, "episode_seed": seed, "task": cond.task,
-                           "undisturbed": cond.undisturbed}
+                           "undisturbed": cond.undisturbed,
+                           "tracker": opts.tracker if job.method == "cam" else None}
     if job.method == "cam":
         from code_as_monitor.bench.reproduce import run_command
 
@@ -223,7 +236,7 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
         vlm = out["vlm"]
         rec.update(
             success=bool(out["success"]), reason=str(out["reason"])[:200], sim_time_s=out["sim_time_s"],
-            stop_reason=out["stop_reason"], replans=out["replans"], frames=out["frames"],
+            stop_reason=out["stop_reason"], replans=out["replans"], frames=out["frames"], images=out["images"],
             vlm={k: vlm.get(k, 0) for k in ("calls", "prompt_tokens", "completion_tokens", "total_tokens",
                                              "calls_by_purpose", "tokens_by_purpose")},
             alarms=_alarms(out["alarms"], cfs.results), gt=_compact_gt(out["gt"]), error=None,
@@ -231,10 +244,12 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     except Exception as exc:  # recorded, not raised: one broken cell must not stop a sweep
         log.warning("episode %s failed: %s", job.key, exc)
         rec.update(success=False, reason="error", sim_time_s=None, stop_reason="error", replans=0, frames=None,
+                   images=None,
                    vlm={"calls": 0, "prompt_tokens": 0, "completion_tokens": 0, "total_tokens": 0,
                         "calls_by_purpose": {}, "tokens_by_purpose": {}}, alarms=[], gt=[],
                    error=f"{type(exc).__name__}: {exc}"[:300], traceback=traceback.format_exc()[-1500:])
     rec["wall_time_s"] = round(time.perf_counter() - wall0, 3)
+    rec["cpu_time_s"] = round(_cpu_seconds() - cpu0, 3)
     rec["video"] = str(video_dir / "episode.mp4") if video_dir is not None and (video_dir / "episode.mp4").exists() \
         else None
     return rec

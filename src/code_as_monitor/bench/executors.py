@@ -22,8 +22,10 @@ here is shut down the same way; its processes are started fate-sharing with this
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import re
 import signal
 import sys
 import threading
@@ -34,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.core.checks import check_count
-from code_as_monitor.core.errors import MissingExtraError
+from code_as_monitor.core.errors import ConfigError, MissingExtraError, RunError
 from code_as_monitor.core.registry import Choice
 
 Task = tuple[Any, Any, Path | None]  # (job, options, video dir)
@@ -51,7 +53,7 @@ class ExecutorConfig(Choice):
         check_count(type(self).__name__, "workers", self.workers, 0)
 
     def n_workers(self) -> int:
-        return self.workers or max(1, os.cpu_count() or 1)
+        return self.workers or usable_cpus()
 
 
 @ExecutorConfig.register("local")
@@ -63,9 +65,27 @@ class LocalExecutorConfig(ExecutorConfig):
 @ExecutorConfig.register("ray")
 @dataclass
 class RayExecutorConfig(ExecutorConfig):
-    """Ray. ``address``: None starts a local instance; otherwise the cluster to connect to."""
+    """Ray. ``address``: None starts a local instance; otherwise the cluster to connect to (``auto``,
+    ``host:port`` or ``ray://host:port``)."""
 
     address: str | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.address is not None and not (
+                self.address == "auto" or re.fullmatch(r"(ray://)?[A-Za-z0-9_.\-\[\]:]+:\d{1,5}", self.address)):
+            raise ConfigError(f"RayExecutorConfig.address must be auto, host:port or ray://host:port, "
+                              f"got {self.address!r}")
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the platform has one, e.g. a container
+    pinned to some cores of a larger host), else the machine's count: one episode per usable core keeps
+    them all busy without oversubscribing them."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
 
 
 def require_ray() -> Any:
@@ -171,16 +191,24 @@ def _run_local(cfg: ExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[t
             _terminate_pool(pool)
 
 
-def _run_ray(cfg: RayExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[tuple[Any, dict[str, Any]]]:
+@contextlib.contextmanager
+def ray_instance(cfg: RayExecutorConfig) -> Iterator[Any]:
+    """Ray, initialised for ``cfg`` for the duration of the block (a local instance, followed by a
+    reaper, or a connection to ``cfg.address``); an already initialised Ray is used as it is."""
     ray = require_ray()
-    started = False
+    if ray.is_initialized():
+        yield ray
+        return
+    # Ray logs INFO/WARNING lines of its own (a token-authentication notice, "Started a local Ray
+    # instance"); keep them unless our logging is verbose.
+    level = logging.INFO if logging.getLogger().getEffectiveLevel() <= logging.INFO else logging.ERROR
     reaper = None
-    if not ray.is_initialized():
-        # Ray logs INFO/WARNING lines of its own (a token-authentication notice, "Started a local Ray
-        # instance"); keep them unless our logging is verbose.
-        level = logging.INFO if logging.getLogger().getEffectiveLevel() <= logging.INFO else logging.ERROR
+    try:
         if cfg.address:
-            ray.init(address=cfg.address, log_to_driver=False, logging_level=level)
+            try:
+                ray.init(address=cfg.address, log_to_driver=False, logging_level=level)
+            except Exception as exc:  # Ray raises ConnectionError, RuntimeError, ValueError ...
+                raise RunError(f"cannot connect to the Ray cluster at {cfg.address!r}: {exc}") from exc
         else:
             from code_as_monitor.bench.reaper import Reaper, children_of
 
@@ -188,22 +216,38 @@ def _run_ray(cfg: RayExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[
             before = children_of(os.getpid())
             ray.init(num_cpus=cfg.n_workers(), include_dashboard=False, log_to_driver=False, logging_level=level)
             reaper.watch(children_of(os.getpid()) - before - {reaper.proc.pid})
-        started = True
-    refs: dict[Any, Any] = {}
-    try:
-        remote = ray.remote(num_cpus=1)(fn)
-        refs = {remote.remote(*t): t[0] for t in tasks}
-        while refs:
-            done, _ = ray.wait(list(refs), num_returns=1)
-            for ref in done:
-                job = refs.pop(ref)
-                yield job, ray.get(ref)
+        yield ray
     finally:
-        for ref in list(refs):
-            ray.cancel(ref, force=True)
-        if started:
+        if ray.is_initialized():
             ray.shutdown()
         if reaper is not None:
             reaper.close()  # whatever of the instance outlived ray.shutdown (its agents) goes now
 
-__all__ = ["ExecutorConfig", "LocalExecutorConfig", "RayExecutorConfig", "require_ray", "run_tasks"]
+
+def executor_session(cfg: ExecutorConfig) -> contextlib.AbstractContextManager[Any]:
+    """Start what ``cfg`` needs before any task (Ray: the instance or the connection), so that a
+    failure to start comes before the caller writes anything; :func:`run_tasks` inside the block
+    reuses it. The local pool needs nothing up front."""
+    if isinstance(cfg, RayExecutorConfig):
+        return ray_instance(cfg)
+    return contextlib.nullcontext()
+
+
+def _run_ray(cfg: RayExecutorConfig, fn: Worker, tasks: list[Task]) -> Iterator[tuple[Any, dict[str, Any]]]:
+    with ray_instance(cfg) as ray:
+        refs: dict[Any, Any] = {}
+        try:
+            remote = ray.remote(num_cpus=1)(fn)
+            refs = {remote.remote(*t): t[0] for t in tasks}
+            while refs:
+                done, _ = ray.wait(list(refs), num_returns=1)
+                for ref in done:
+                    job = refs.pop(ref)
+                    yield job, ray.get(ref)
+        finally:
+            for ref in list(refs):
+                ray.cancel(ref, force=True)
+
+
+__all__ = ["ExecutorConfig", "LocalExecutorConfig", "RayExecutorConfig", "executor_session", "ray_instance",
+           "require_ray", "run_tasks"]

@@ -149,7 +149,12 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     ms, cs, cells = summary["methods"], summary["conditions"], summary["cells"]
     checking = [m for m in ms if m != "open-loop"]  # the methods that time themselves and raise alarms
     heads = ["Condition", "n/cell"] + [f"SR {HEADERS[m]}" for m in ms] + [f"Time {HEADERS[m]}" for m in checking]
-    out = [interval_note(summary), "", "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
+    opts = summary.get("options") or {}
+    tracker = opts.get("tracker", "sim")
+    perception = (f"CaM perception: elements painted from `{opts.get('segmenter', 'sim')}` masks, tracked by "
+                  f"`{tracker}`" + (" (the oracle: ground-truth poses)." if tracker == "sim" else
+                                    " (no simulator poses)."))
+    out = [perception, "", interval_note(summary), "", "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for c in cs:
         row = [c.label, str(min((cells[(c.id, m)]["n"] for m in ms if (c.id, m) in cells), default=0))]
         row += [_pm(cells[(c.id, m)]["success"], bounds=BOUNDS["success"]) if (c.id, m) in cells else "—"

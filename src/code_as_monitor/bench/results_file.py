@@ -17,6 +17,7 @@ recorded take the ``code`` of their session's ``bench_start`` line (a git revisi
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
@@ -106,16 +107,25 @@ def _holder_pid(path: Path) -> str:
 class ResultsLock:
     """Exclusive lock on a results file for one writer; ``with ResultsLock(path): ...``.
 
-    Creates the file (and its directory) if needed. Raises RunError when another process holds it.
+    Creates the file (and its directory) if needed, and removes it again on release if it is still
+    empty. Raises RunError when another process holds it.
     """
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
         self._fd: int | None = None
+        self._created = False
+        self._new_dirs: list[Path] = []
 
     def acquire(self) -> ResultsLock:
         import fcntl
 
+        self._created = not self.path.exists()
+        self._new_dirs = []
+        d = self.path.parent.absolute()
+        while not d.exists():
+            self._new_dirs.append(d)
+            d = d.parent
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o644)
         try:
@@ -128,7 +138,14 @@ class ResultsLock:
         return self
 
     def release(self) -> None:
+        """Drop the lock; a file this lock created and nobody wrote to (a session that failed before
+        its first line) is removed, so a refused run leaves nothing behind."""
         if self._fd is not None:
+            if self._created and os.fstat(self._fd).st_size == 0:
+                with contextlib.suppress(OSError):
+                    self.path.unlink()
+                    for d in self._new_dirs:  # deepest first; stops at the first that is not empty
+                        d.rmdir()
             os.close(self._fd)  # closing the last descriptor of the open file drops the lock
             self._fd = None
 

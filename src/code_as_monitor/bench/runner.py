@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.bench.episode import EpisodeOptions, run_episode
-from code_as_monitor.bench.executors import ExecutorConfig, LocalExecutorConfig, run_tasks
+from code_as_monitor.bench.executors import ExecutorConfig, LocalExecutorConfig, executor_session, run_tasks
 from code_as_monitor.bench.protocol import BenchSpec, Job
 from code_as_monitor.bench.reproduce import reproduce_command
 from code_as_monitor.bench.results_file import ResultsLock, code_version, git_describe, record_versions
@@ -154,7 +154,7 @@ def run_bench(spec: BenchSpec, results: str | Path, executor: ExecutorConfig | N
         rdir = Path(runs_dir) if runs_dir is not None else None
         wall0 = time.perf_counter()
         ran = 0
-        with EventLog(results, append=True) as log:
+        with executor_session(executor), EventLog(results, append=True) as log:
             log.write("bench_start", options=opts.to_dict(), executor=executor.to_dict(),
                       spec={"methods": spec.methods, "conditions": spec.conditions, "seeds": spec.seeds,
                             "episodes": spec.episodes}, pending=len(jobs), keep_stale=keep_stale,

@@ -16,7 +16,6 @@ single-image stand-in, not a VLM. Then: cam report <results>.
 from __future__ import annotations
 
 import argparse
-import signal
 from pathlib import Path
 from typing import Any
 
@@ -55,26 +54,19 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--backend-options", type=v.json_object, default={}, help="JSON object of backend options")
     add_server_options(p)
     p.add_argument("--doremi-k", type=v.positive, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
-    p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle) or lk (default sim)")
+    p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle, default), lk, depth; recorded in "
+                   "every result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--no-counterfactual", action="store_true", help="skip counterfactual rollouts")
     p.add_argument("--list", action="store_true", help="list conditions and methods")
     p.set_defaults(func=run)
 
 
-def _sigterm_as_interrupt() -> None:
-    """SIGTERM ends a sweep like Ctrl-C: the pool is cancelled and its workers ended, nothing half-written."""
-
-    def handler(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, handler)
-
-
 def run(args: argparse.Namespace) -> int:
     from code_as_monitor.bench.executors import ExecutorConfig
     from code_as_monitor.bench.protocol import CONDITIONS, METHODS, QUICK, SUITE_DEFAULTS, SUITES, BenchSpec
     from code_as_monitor.bench.runner import run_bench
+    from code_as_monitor.cli.signals import sigterm_as_interrupt
 
     if args.list:
         for c in CONDITIONS:
@@ -111,9 +103,9 @@ def run(args: argparse.Namespace) -> int:
         from code_as_monitor.bench.executors import require_ray
 
         require_ray()
-    _sigterm_as_interrupt()
     runs_dir = None if args.no_videos else args.runs_dir
-    with _Progress(results) as (on_start, on_result):
+    # SIGTERM ends a sweep like Ctrl-C: the pool is cancelled and its workers ended, nothing half-written.
+    with sigterm_as_interrupt(), _Progress(results) as (on_start, on_result):
         out = run_bench(spec, results, executor, runs_dir, on_result, on_start, keep_stale=args.keep_stale)
     stale = (f", {out['stale']} made by other code {'kept' if args.keep_stale else 'run again'}"
              if out["stale"] else "")

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
 from code_as_monitor.cli import validate as v
@@ -33,7 +32,7 @@ MONITOR_EXIT = {**EXIT_CODES, "completed": 0}
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("monitor", help="replay a ROS 2 bag (MCAP / sqlite3) through the monitor",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("bag", type=Path, help="bag: a .mcap or .db3 file or a rosbag2 directory")
+    p.add_argument("bag", type=v.input_path, help="bag: a .mcap or .db3 file or a rosbag2 directory")
     p.add_argument("--instruction", default=None, help="the task instruction (default: the bag's, if recorded)")
     p.add_argument("--topics", type=v.input_file, default=None, help="topic map YAML (see docs/robot.md)")
     p.add_argument("--objects", default=None, help="comma-separated scene object names (default: the map's)")

@@ -20,6 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from code_as_monitor.cli import validate as v
 from code_as_monitor.cli.run_cmd import EXIT_CODES, add_common, config_from_args
 from code_as_monitor.core.errors import ConfigError
 
@@ -28,7 +29,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("record", help="record a simulator episode as a ROS 2 bag (MCAP or sqlite3)",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("task", help="simulator task id (see `cam sim --list`)")
-    p.add_argument("--out", type=Path, required=True, help="output bag: X.mcap, X.db3 or a directory name")
+    p.add_argument("--out", type=v.new_file, required=True, help="output bag: X.mcap, X.db3 or a directory name")
     p.add_argument("--depth-encoding", default="32FC1", choices=("32FC1", "16UC1"),
                    help="depth as 32FC1 metres (exact, default) or 16UC1 millimetres (as a RealSense)")
     add_common(p)

@@ -14,7 +14,6 @@ Exit codes: 0 the re-run matches its record; 1 it differs; 2 a bad argument, fil
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from code_as_monitor.cli import validate as v
 
@@ -25,7 +24,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("results", type=v.input_file, help="JSONL results file written by cam bench")
     p.add_argument("--key", required=True, help="CONDITION/METHOD/SEED/EPISODE of the record")
     p.add_argument("--video", action="store_true", help="write the re-run's episode.mp4 into a fresh run dir")
-    p.add_argument("--runs", type=v.output_dir, default=Path("runs"), help="parent of the run dir (default runs/)")
+    p.add_argument("--runs", type=v.output_dir, default="runs", help="parent of the run dir (default runs/)")
     p.set_defaults(func=run)
 
 

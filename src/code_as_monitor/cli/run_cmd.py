@@ -53,7 +53,9 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     add_server_options(p)
     p.add_argument("--segmenter", default=segmenter,
                    help=f"segmenter: sim (ground-truth masks), color, http (default {segmenter})")
-    p.add_argument("--tracker", default="lk", help="tracker: lk (OpenCV Lucas-Kanade, default), sim (oracle)")
+    p.add_argument("--tracker", default="lk",
+                   help="tracker: lk (OpenCV Lucas-Kanade, default), depth (depth registration with small_gicp), "
+                        "sim (oracle)")
     p.add_argument("--camera-hz", type=v.positive, default=10.0, help="monitoring/camera rate, Hz (default 10)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
     p.add_argument("--runs", type=v.output_dir, default="runs", help="parent of the run directory (default runs/)")

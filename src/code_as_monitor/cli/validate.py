@@ -5,7 +5,7 @@ a bad value ends the command with one line on stderr and exit status 2.
 
 - :class:`CamArgumentParser` turns argparse's usage-plus-error into that one line.
 - Argument types (``type=`` of ``add_argument``): :func:`seed`, :func:`count`, :func:`number`,
-  :func:`probability`, :func:`json_object`, :func:`csv`, and for paths :func:`input_file`,
+  :func:`probability`, :func:`json_object`, :func:`csv`, and for paths :func:`input_file`, :func:`input_path`,
   :func:`output_dir`, :func:`new_file`, :func:`results_file`. A string ``default`` goes through the
   type too, so default paths are checked like given ones.
 - The same path checks as functions raising :class:`~code_as_monitor.core.errors.ConfigError`
@@ -203,6 +203,18 @@ def check_input_file(path: str | os.PathLike[str], flag: str) -> Path:
     return p
 
 
+def check_input_path(path: str | os.PathLike[str], flag: str) -> Path:
+    """An existing, readable file or directory (a rosbag2 bag is either)."""
+    p = _path(path, flag)
+    if p.is_dir():
+        try:
+            os.listdir(p)
+        except OSError as exc:
+            raise ConfigError(f"{_who(flag, p)}: cannot read the directory ({exc.strerror or exc})") from None
+        return p
+    return check_input_file(p, flag)
+
+
 def check_results_file(path: str | os.PathLike[str], flag: str) -> Path:
     """A JSONL results file to append to (resume) or create: an existing regular file we can open for
     appending, or a new one in a writable (or creatable) directory."""
@@ -225,6 +237,7 @@ def _path_type(name: str, check: Callable[[str, str], Path]) -> ArgType:
 
 
 input_file: ArgType = _path_type("input_file", check_input_file)
+input_path: ArgType = _path_type("input_path", check_input_path)
 output_dir: ArgType = _path_type("output_dir", check_output_dir)
 new_file: ArgType = _path_type("new_file", check_new_file)
 results_file: ArgType = _path_type("results_file", check_results_file)
@@ -257,6 +270,25 @@ def check_namespace(args: argparse.Namespace) -> None:
                 _path(v, flag)
 
 
-__all__ = ["CamArgumentParser", "check_input_file", "check_namespace", "check_new_file", "check_output_dir",
-           "check_results_file", "count", "csv", "input_file", "json_object", "new_file", "non_negative", "number",
-           "output_dir", "positive", "probability", "results_file", "seed"]
+__all__ = [
+    "CamArgumentParser",
+    "check_input_file",
+    "check_input_path",
+    "check_namespace",
+    "check_new_file",
+    "check_output_dir",
+    "check_results_file",
+    "count",
+    "csv",
+    "input_file",
+    "input_path",
+    "json_object",
+    "new_file",
+    "non_negative",
+    "number",
+    "output_dir",
+    "positive",
+    "probability",
+    "results_file",
+    "seed",
+]

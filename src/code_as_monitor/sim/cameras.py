@@ -7,18 +7,22 @@ from that same model, so the exported model is exactly the one used for renderin
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from code_as_monitor.core.camera import CameraModel
-from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import View
 
 # OpenCV camera axes -> OpenGL camera axes (x right, y up, z backward).
 _CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 
 RENDERERS = ("tiny", "egl")
+
+Images = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""One rendered frame of a view: rgb (H, W, 3) uint8, depth (H, W) float32 metres, seg (H, W) int32."""
 
 
 @dataclass
@@ -71,6 +75,7 @@ class SimCamera:
     camera: CameraModel = field(init=False)
     _view: list[float] = field(init=False)
     _proj: list[float] = field(init=False)
+    frames: int = field(init=False, default=0)  # images rendered so far
 
     def __post_init__(self) -> None:
         import pybullet as pb
@@ -85,27 +90,103 @@ class SimCamera:
             raise ConfigError(f"unknown renderer {self.renderer!r}; choose one of: {', '.join(RENDERERS)}")
 
     def render(self, seg_labels: dict[int, tuple[str, str]]) -> View:
-        """Render one frame.
+        """Render one frame now.
 
         Returns a View with rgb (H, W, 3) uint8, depth (H, W) float32 metres along the optical axis
         (0 = no reading, i.e. the far plane), seg (H, W) int32 with PyBullet's
         ``objectUniqueId + ((linkIndex + 1) << 24)`` ids (-1 background) and ``seg_labels``.
         """
+        rgb, depth, seg = self.images(self._view)
+        return View(rgb=rgb, depth=depth, camera=self.camera, seg=seg, seg_labels=dict(seg_labels))
+
+    def defer(self, seg_labels: dict[int, tuple[str, str]], clock: Callable[[], int],
+              fetch: Callable[[list[float]], Images] | None = None) -> DeferredView:
+        """A View of the scene as it is now whose images are rendered when first read (see
+        :class:`DeferredView`); ``clock()`` is the world's tick counter at the time of reading;
+        ``fetch(view_matrix)`` gives the images (default :meth:`images`; a world passes its cache)."""
+        get = fetch or self.images
+        view = self._view
+        return DeferredView(self.camera, dict(seg_labels), lambda: get(view), clock)
+
+    def images(self, view_matrix: list[float]) -> Images:
+        """One ``getCameraImage`` call from ``view_matrix`` (column-major OpenGL): rgb (H, W, 3) uint8,
+        depth (H, W) float32 metres (0 = no reading), seg (H, W) int32 (see :meth:`render`)."""
         import pybullet as pb
 
         s = self.spec
         flags = pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX
         r = pb.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else pb.ER_TINY_RENDERER
         _, _, rgba, zbuf, seg = pb.getCameraImage(
-            s.width, s.height, viewMatrix=self._view, projectionMatrix=self._proj, renderer=r, flags=flags,
+            s.width, s.height, viewMatrix=view_matrix, projectionMatrix=self._proj, renderer=r, flags=flags,
             shadow=0, physicsClientId=self.client,
         )
+        self.frames += 1
         rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (s.height, s.width, 4))[:, :, :3])
         z = np.reshape(np.asarray(zbuf, dtype=np.float64), (s.height, s.width))
         depth = (s.far * s.near / (s.far - (s.far - s.near) * z)).astype(np.float32)
         depth[z >= 1.0 - 1e-7] = 0.0
         seg_img = np.reshape(np.asarray(seg, dtype=np.int64), (s.height, s.width)).astype(np.int32)
-        return View(rgb=rgb, depth=depth, camera=self.camera, seg=seg_img, seg_labels=dict(seg_labels))
+        return rgb, depth, seg_img
+
+
+class DeferredView(View):
+    """A :class:`View` whose images are rendered the first time ``rgb``, ``depth`` or ``seg`` is read.
+
+    A consumer that reads only ``camera`` (a pose-based tracker, a visibility count) costs no render; one
+    that reads the images gets exactly what an eager render at creation time would have given, because
+    the camera pose is fixed at creation and the read must happen before the world moves on: reading the
+    images after the world's tick counter (``clock()``) changed raises :class:`SimError` (the frame would
+    show a later instant). A world rewound to the same tick (counterfactual rollouts restore the physics
+    state) still renders. Pickling or copying renders it and gives a plain :class:`View`.
+    """
+
+    def __init__(self, camera: CameraModel, seg_labels: dict[int, tuple[str, str]], fetch: Callable[[], Images],
+                 clock: Callable[[], int]) -> None:
+        self.camera = camera
+        self.seg_labels = seg_labels
+        self._fetch = fetch
+        self._clock = clock
+        self._tick = clock()
+        self._images: Images | None = None
+
+    @property
+    def rendered(self) -> bool:
+        """True once the images exist."""
+        return self._images is not None
+
+    def _get(self) -> Images:
+        if self._images is None:
+            now = self._clock()
+            if now != self._tick:
+                raise SimError(
+                    f"view {self.camera.name!r} of tick {self._tick} read at tick {now}: its images were never "
+                    "rendered and the world has moved on; read them before stepping (or observe(eager=True))")
+            self._images = self._fetch()
+        return self._images
+
+    @property  # type: ignore[override]
+    def rgb(self) -> np.ndarray:
+        return self._get()[0]
+
+    @property  # type: ignore[override]
+    def depth(self) -> np.ndarray:
+        return self._get()[1]
+
+    @property  # type: ignore[override]
+    def seg(self) -> np.ndarray:
+        return self._get()[2]
+
+    def materialize(self) -> View:
+        """A plain View with the images rendered."""
+        rgb, depth, seg = self._get()
+        return View(rgb=rgb, depth=depth, camera=self.camera, seg=seg, seg_labels=self.seg_labels)
+
+    def __reduce__(self) -> tuple:
+        v = self.materialize()
+        return (View, (v.rgb, v.depth, v.camera, v.seg, v.seg_labels))
+
+    def __repr__(self) -> str:
+        return f"DeferredView({self.camera.name!r}, tick={self._tick}, rendered={self.rendered})"
 
 
 def load_egl(client: int) -> bool:

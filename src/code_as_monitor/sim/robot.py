@@ -37,18 +37,56 @@ def pose_matrix(pos, orn) -> np.ndarray:
     return T
 
 
+ROBOT_VISUALS = ("mesh", "hull")
+
+
+def panda_urdf(visual: str = "mesh") -> str:
+    """Path of the Panda URDF with the given visual geometry (what cameras see; physics is the same).
+
+    ``"mesh"``: ``pybullet_data``'s own file, its detailed visual meshes (about 100k triangles, two
+    thirds of a 320x240 TinyRenderer frame's cost). ``"hull"``: the same robot drawn with its collision
+    meshes (about 3k triangles, plain white): a variant of that file written once to a cache directory
+    (the temporary directory), with absolute mesh paths.
+    """
+    import hashlib
+    import os
+    import tempfile
+
+    import pybullet_data
+
+    from code_as_monitor.core.errors import ConfigError
+
+    if visual not in ROBOT_VISUALS:
+        raise ConfigError(f"robot visual must be one of {', '.join(ROBOT_VISUALS)}, got {visual!r}")
+    root = os.path.join(pybullet_data.getDataPath(), "franka_panda")
+    urdf = os.path.join(root, "panda.urdf")
+    if visual == "mesh":
+        return urdf
+    with open(urdf, encoding="utf-8") as fh:
+        text = fh.read()
+    text = text.replace("package://meshes/visual/", "package://meshes/collision/")
+    text = text.replace("package://meshes/", root + "/meshes/")
+    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
+    cache = os.path.join(tempfile.gettempdir(), f"code_as_monitor-{os.getuid()}")
+    path = os.path.join(cache, f"panda_hull_{digest}.urdf")
+    if not os.path.exists(path):
+        os.makedirs(cache, exist_ok=True)
+        tmp = f"{path}.{os.getpid()}.tmp"
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)  # atomic: concurrent workers write the same bytes
+    return path
+
+
 class Panda:
     """A fixed-base Panda at ``base`` (world metres) carrying one end-effector."""
 
-    def __init__(self, client: int, ee_kind: str = "suction", base: tuple[float, float, float] = (0.0, 0.0, 0.0)):
-        import os
-
+    def __init__(self, client: int, ee_kind: str = "suction", base: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 visual: str = "mesh"):
         import pybullet as pb
-        import pybullet_data
 
         self.client = c = client
-        urdf = os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf")
-        self.body = pb.loadURDF(urdf, base, useFixedBase=True, physicsClientId=c)
+        self.body = pb.loadURDF(panda_urdf(visual), base, useFixedBase=True, physicsClientId=c)
         n = pb.getNumJoints(self.body, physicsClientId=c)
         self.link_names = {-1: "panda_link0"}
         for j in range(n):

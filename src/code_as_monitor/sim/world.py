@@ -2,15 +2,18 @@
 
 Clock: physics steps at ``physics_hz`` (240 Hz); the controller ticks at ``control_hz`` (each
 :meth:`World.tick` runs ``physics_hz // control_hz`` physics steps); ``World.t`` is sim time in
-seconds (ticks x control period). Frames are rendered only when :meth:`World.observe` is called;
-:meth:`World.frame_due` says when the ``camera_hz`` schedule wants one. Same seed, same calls ->
-same trajectory (everything goes through this client and ``World.rng``).
+seconds (ticks x control period). Frames are rendered only when :meth:`World.observe` is called; with
+``WorldConfig.defer_render`` only the views whose images are read
+(:class:`~code_as_monitor.sim.cameras.DeferredView`). :meth:`World.frame_due` says when the
+``camera_hz`` schedule wants one. Same seed, same calls -> same trajectory (everything goes through
+this client and ``World.rng``; rendering changes nothing in the physics).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -19,9 +22,16 @@ import numpy as np
 from code_as_monitor.core.checks import check_positive, check_seed
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import Observation, RobotState, View
-from code_as_monitor.sim.cameras import CameraSpec, SimCamera, default_cameras, encode_seg_id, load_egl
+from code_as_monitor.sim.cameras import (
+    CameraSpec,
+    Images,
+    SimCamera,
+    default_cameras,
+    encode_seg_id,
+    load_egl,
+)
 from code_as_monitor.sim.events import EventLog
-from code_as_monitor.sim.robot import Panda, pose_matrix
+from code_as_monitor.sim.robot import ROBOT_VISUALS, Panda, pose_matrix
 
 ASSETS = Path(__file__).parent / "assets"
 
@@ -37,6 +47,8 @@ class WorldConfig:
     height: int = 240
     cameras: list[CameraSpec] | None = None
     renderer: str = "tiny"  # "tiny" (CPU, always available) or "egl" (falls back to tiny if it fails)
+    robot_visual: str = "mesh"  # what cameras see of the arm: "mesh" (detailed) or "hull" (see sim.robot.panda_urdf)
+    defer_render: bool = False  # observe() returns views rendered when first read (see World.observe)
 
     def __post_init__(self) -> None:
         if self.physics_hz <= 0 or self.control_hz <= 0 or self.physics_hz % self.control_hz:
@@ -45,6 +57,9 @@ class WorldConfig:
         check_positive("WorldConfig", "camera_hz", self.camera_hz)
         if self.renderer not in ("tiny", "egl"):
             raise ConfigError(f"WorldConfig.renderer must be 'tiny' or 'egl', got {self.renderer!r}")
+        if self.robot_visual not in ROBOT_VISUALS:
+            raise ConfigError(f"WorldConfig.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, "
+                              f"got {self.robot_visual!r}")
 
 
 @dataclass
@@ -86,13 +101,16 @@ class World:
         self._body_name: dict[int, str] = {}
         self._seg_labels: dict[int, tuple[str, str]] | None = None
         self._next_frame_tick = 0
+        self._deferred: list[Any] = []  # the last deferred views (rendered before a save_state)
+        self._frame_key: tuple[int, bytes] | None = None  # the instant of the renders in _frames
+        self._frames: dict[tuple[str, tuple[float, ...]], Images] = {}
         self.renderer = cfg.renderer  # the plugin must load before any body so it sees every visual
         if cfg.renderer == "egl" and not load_egl(c):
             self.renderer = "tiny"
         table = pb.loadURDF(str(ASSETS / "table.urdf"), [0.3, 0, 0], useFixedBase=True, physicsClientId=c)
         pb.changeDynamics(table, -1, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
         self.add_object("table", [table], whole=[(table, -1)])
-        self.robot = Panda(c, ee_kind=ee)
+        self.robot = Panda(c, ee_kind=ee, visual=cfg.robot_visual)
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
         self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
 
@@ -222,16 +240,74 @@ class World:
         return RobotState(ee_pose=T, gripper=self.robot.ee.gripper_value(), ee_kind=self.robot.ee.kind,
                           ee_points=points, joints=self.robot.joints())
 
-    def render(self) -> dict[str, View]:
-        labels = self.seg_labels()
-        return {cam.spec.name: cam.render(labels) for cam in self.cameras}
+    def render(self, eager: bool = True) -> dict[str, View]:
+        """Every camera's view of the current instant: rendered now (``eager``), or as
+        :class:`~code_as_monitor.sim.cameras.DeferredView` s rendered when their images are first read.
 
-    def observe(self, render: bool = True) -> Observation:
-        """The current Observation (views rendered now unless ``render=False``); advances the frame schedule."""
+        A view of an instant already rendered (the same tick, every body and robot joint where it was)
+        reuses that render (a copy of its images): the monitor's last frame of a subgoal and the
+        planner's and painter's first frame of the next are one instant, rendered once.
+        """
+        labels = self.seg_labels()
+        if eager:
+            views: dict[str, View] = {}
+            for cam in self.cameras:
+                rgb, depth, seg = self._fetch(cam, cam._view)
+                views[cam.spec.name] = View(rgb=rgb, depth=depth, camera=cam.camera, seg=seg, seg_labels=dict(labels))
+            return views
+        views = {cam.spec.name: cam.defer(labels, self._clock, partial(self._fetch, cam)) for cam in self.cameras}
+        self._deferred = list(views.values())
+        return views
+
+    def _clock(self) -> int:
+        return self.ticks if self.client >= 0 else -1
+
+    def _instant_key(self) -> tuple[int, bytes]:
+        """The tick and every body's base pose and every joint position, as bytes: equal keys, equal images."""
+        import pybullet as pb
+
+        c = self.client
+        state: list[float] = []
+        for i in range(pb.getNumBodies(physicsClientId=c)):
+            b = pb.getBodyUniqueId(i, physicsClientId=c)
+            pos, orn = pb.getBasePositionAndOrientation(b, physicsClientId=c)
+            state += [*pos, *orn]
+            n = pb.getNumJoints(b, physicsClientId=c)
+            if n:
+                state += [s[0] for s in pb.getJointStates(b, range(n), physicsClientId=c)]
+        return self.ticks, np.asarray(state, dtype=np.float64).tobytes()
+
+    def _fetch(self, cam: SimCamera, view_matrix: list[float]) -> Images:
+        """Images of ``cam`` from ``view_matrix`` now: rendered, or a copy of the render of this instant
+        (keeps the renders of the latest instant only; a deferred view reads at its own tick)."""
+        key = self._instant_key()
+        if self._frame_key != key:
+            self._frame_key, self._frames = key, {}
+        hit = self._frames.get((cam.spec.name, tuple(view_matrix)))
+        if hit is None:
+            hit = self._frames[(cam.spec.name, tuple(view_matrix))] = cam.images(view_matrix)
+        return hit[0].copy(), hit[1].copy(), hit[2].copy()
+
+    @property
+    def frames_rendered(self) -> int:
+        """Camera images rendered so far (one per view and frame actually rendered)."""
+        return sum(cam.frames for cam in self.cameras)
+
+    def observe(self, render: bool = True, eager: bool | None = None) -> Observation:
+        """The current Observation; advances the frame schedule.
+
+        ``render``: include the views (False: ``views`` is empty). ``eager`` (default: not
+        ``WorldConfig.defer_render``): render every view now; otherwise a view is rendered only when
+        something reads its images (a consumer that uses only the cameras or the ground-truth poses
+        costs no render), and the read must come before the world ticks again (a later read raises
+        SimError): for loops that consume each frame as it comes, as the benchmark's do.
+        """
+        if eager is None:
+            eager = not self.config.defer_render
         period = max(1, round(self.config.control_hz / self.config.camera_hz))
         self._next_frame_tick = (self.ticks // period + 1) * period
         objects = [n for n in self.objects if n != "table"] + ["table"]
-        return Observation(t=self.t, views=self.render() if render else {}, robot=self.robot_state(),
+        return Observation(t=self.t, views=self.render(eager) if render else {}, robot=self.robot_state(),
                            objects=objects, object_poses=self.object_poses())
 
     def camera_models(self) -> dict[str, Any]:
@@ -240,10 +316,15 @@ class World:
     # --- state ------------------------------------------------------------------------------------------------
     def save_state(self) -> dict[str, Any]:
         """Snapshot for counterfactual rollouts: physics state, clock, event count, suction attachment.
+        Views of the current instant not yet rendered are rendered first.
 
         Restore only into this same world (objects are never added after reset)."""
         import pybullet as pb
 
+        for v in self._deferred:  # a rollout from here moves the world: fix this instant's views first
+            if v._tick == self.ticks:
+                v.materialize()
+        self._deferred = []
         ee = self.robot.ee
         return {"state": pb.saveState(physicsClientId=self.client), "ticks": self.ticks, "n_events": len(self.events),
                 "q_target": list(self.robot.q_target), "ee_active": ee.active,

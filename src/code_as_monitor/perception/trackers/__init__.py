@@ -1,7 +1,8 @@
-"""Trackers: the stage registry, streaming interface and factory. Backends (``lk``, ``sim``) are
+"""Trackers: the stage registry, streaming interface and factory. Backends (``lk``, ``depth``, ``sim``) are
 imported only by :func:`make_tracker`."""
 
 from code_as_monitor.perception.trackers.base import (
+    DepthTrackerConfig,
     LKTrackerConfig,
     SimTrackerConfig,
     Tracker,
@@ -10,4 +11,12 @@ from code_as_monitor.perception.trackers.base import (
     make_tracker,
 )
 
-__all__ = ["LKTrackerConfig", "SimTrackerConfig", "TrackResult", "Tracker", "TrackerConfig", "make_tracker"]
+__all__ = [
+    "DepthTrackerConfig",
+    "LKTrackerConfig",
+    "SimTrackerConfig",
+    "TrackResult",
+    "Tracker",
+    "TrackerConfig",
+    "make_tracker",
+]

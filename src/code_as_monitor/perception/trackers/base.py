@@ -12,7 +12,7 @@ replaced by a guess. Elements owned by the robot's end-effector (owner object ``
 follow forward kinematics (``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every
 backend: they are never tracked in images.
 
-The backend configs are registered here; implementations (``lk``, ``sim``) are imported only by
+The backend configs are registered here; implementations (``lk``, ``depth``, ``sim``) are imported only by
 :func:`make_tracker`.
 """
 
@@ -141,6 +141,115 @@ class LKTrackerConfig(TrackerConfig):
         check_positive("lk", "rekey_px", self.rekey_px, allow_zero=True)
 
 
+@TrackerConfig.register("depth")
+@dataclass
+class DepthTrackerConfig(TrackerConfig):
+    """Each element's object or part followed in 3-D by registering its painted cloud to the current depth
+    images of all views with small_gicp (see :mod:`code_as_monitor.perception.trackers.depth`).
+
+    Attributes:
+        registration: small_gicp registration type: "PLANE_ICP" (point-to-plane), "GICP" or "ICP".
+        max_correspondence: metres; correspondence distances of the successive ICP rounds, coarse to fine.
+        max_iterations: ICP iterations per round.
+        min_information: a direction whose translation information (from the registration's Hessian) is
+            below this fraction of the strongest direction's is not observed (only vertical faces seen:
+            height unknown); the translation keeps the guess's value along it (0 disables).
+        voxel: metres; the model and the cropped scene are voxel-downsampled to this ...
+        max_model_points: ... or to a coarser grid that leaves a body's model at most this many points.
+        margin_px: the scene is cropped to the predicted poses' image bounding box grown by this.
+        box_margin: metres; ... and to their world bounding box grown by this.
+        depth_tol: metres; a model point is seen when the depth reading at its pixel is within this of its
+            depth, contradicted when the reading lies further than this behind it.
+        min_seen: a pose needs at least this many model points seen ...
+        min_seen_frac: ... and at least this fraction of the points seen when the body was painted ...
+        max_contradiction: ... and at most this fraction of its informative points contradicted;
+            otherwise the body is lost this frame and its elements are stale.
+        max_rotation: degrees; a registration that turns its guess further than this is not taken (a block
+            seen from two faces has symmetric fits a quarter turn away; nothing turns that fast here).
+        fall_correspondence: metres; the first ICP round's correspondence distance from a falling guess.
+        fall_seen_frac: a falling guess's result must see at least this fraction of the points the body's
+            last good pose saw (a fall is searched from far: a half-way fit must not pass).
+        related_parts: a part is also tried where the nearest this many other parts of its object that
+            moved this frame took it (a drawer moves with its handle); 0 disables.
+        max_overlap: when this fraction of one body's model points lies on another object's body (within
+            ``depth_tol``), the two claim the same surface: the one painted longer ago (or, painted
+            together, the one that moved further) is lost.
+        unmoved_seen, unmoved_residual: a body neither held nor moved by its object keeps its pose without
+            registration when, there, the new frame sees at least ``unmoved_seen`` of the points the last
+            frame saw, hardly more contradicted ones, and a mean depth residual at most ``unmoved_residual``
+            metres above the last (a body at rest costs one projection).
+        plane_band: metres; points this close to the dominant (support) plane fitted at reset are left
+            out of models and scenes (0 disables the plane).
+        tool_radius, tool_margin: metres; scene points further than ``tool_margin`` up the tool axis from
+            the end-effector tip and within ``tool_radius`` of the axis are the end-effector, left out (the
+            radius grows to hold the robot state's named end-effector points, e.g. a gripper's jaws).
+        held_distance: metres; a body whose model comes this close to the tip while the gripper or
+            suction is on is also tried where the end-effector's motion since the last frame moved it.
+        moving: metres per frame; a body that moved more than this last frame is also tried at a constant
+            velocity and on a ballistic (falling) path.
+        gravity: metres / s^2 along world -z, for the ballistic guess.
+        reacquire_after: frames a body may be lost before the reacquire hook runs (and the wait before
+            retrying after the hook found nothing).
+        max_depth: metres; depth readings beyond this are invalid.
+        min_points: fewest model points (after downsampling) a body needs to be tracked.
+    """
+
+    registration: str = "PLANE_ICP"
+    max_correspondence: tuple[float, ...] = (0.02, 0.006)
+    max_iterations: int = 12
+    min_information: float = 0.05
+    voxel: float = 0.003
+    max_model_points: int = 500
+    margin_px: int = 8
+    box_margin: float = 0.025
+    depth_tol: float = 0.005
+    min_seen: int = 15
+    min_seen_frac: float = 0.1
+    max_contradiction: float = 0.15
+    max_overlap: float = 0.3
+    related_parts: int = 2
+    max_rotation: float = 45.0
+    fall_correspondence: float = 0.04
+    fall_seen_frac: float = 0.5
+    unmoved_seen: float = 0.97
+    unmoved_residual: float = 0.0005
+    plane_band: float = 0.004
+    tool_radius: float = 0.02
+    tool_margin: float = 0.004
+    held_distance: float = 0.02
+    moving: float = 0.003
+    gravity: float = 9.81
+    reacquire_after: int = 2
+    max_depth: float = 5.0
+    min_points: int = 8
+
+    def __post_init__(self) -> None:
+        if self.registration not in ("PLANE_ICP", "GICP", "ICP"):
+            raise ConfigError(f"depth.registration must be PLANE_ICP, GICP or ICP, got {self.registration!r}")
+        self.max_correspondence = tuple(float(x) for x in self.max_correspondence)
+        if not self.max_correspondence or min(self.max_correspondence) <= 0:
+            raise ConfigError(f"depth.max_correspondence must be positive distances, got {self.max_correspondence!r}")
+        if not 0.0 <= self.min_seen_frac <= 1.0:
+            raise ConfigError(f"depth.min_seen_frac must be in [0, 1], got {self.min_seen_frac!r}")
+        if not 0.0 <= self.fall_seen_frac <= 1.0:
+            raise ConfigError(f"depth.fall_seen_frac must be in [0, 1], got {self.fall_seen_frac!r}")
+        check_positive("depth", "fall_correspondence", self.fall_correspondence)
+        if not 0.0 < self.unmoved_seen <= 1.0:
+            raise ConfigError(f"depth.unmoved_seen must be in (0, 1], got {self.unmoved_seen!r}")
+        check_positive("depth", "unmoved_residual", self.unmoved_residual, allow_zero=True)
+        if not 0.0 < self.max_overlap <= 1.0:
+            raise ConfigError(f"depth.max_overlap must be in (0, 1], got {self.max_overlap!r}")
+        if not 0.0 <= self.max_contradiction <= 1.0:
+            raise ConfigError(f"depth.max_contradiction must be in [0, 1], got {self.max_contradiction!r}")
+        for f in ("max_iterations", "voxel", "max_model_points", "max_rotation", "depth_tol", "min_seen",
+                  "max_depth", "min_points", "reacquire_after"):
+            check_positive("depth", f, getattr(self, f))
+        for f in ("related_parts", "min_information", "margin_px", "box_margin", "plane_band", "tool_radius",
+                  "tool_margin",
+                  "held_distance", "moving", "gravity"):
+            check_positive("depth", f, getattr(self, f), allow_zero=True)
+
+
 @dataclass
 class TrackResult:
     """Element positions at one frame.
@@ -234,6 +343,7 @@ def views_containing(obs: Observation, points: np.ndarray) -> int:
 _IMPLEMENTATIONS: dict[str, str] = {
     "sim": "code_as_monitor.perception.trackers.sim:SimTracker",
     "lk": "code_as_monitor.perception.trackers.lk:LKTracker",
+    "depth": "code_as_monitor.perception.trackers.depth:DepthTracker",
 }
 
 

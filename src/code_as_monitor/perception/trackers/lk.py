@@ -40,7 +40,8 @@ Re-acquisition of points stale in every view: when an element has had a stale po
 ``reacquire_after`` frames, the hook set by :meth:`set_reacquire` (the agent re-runs the painter) is
 called; a returned element replaces the points and is re-seeded, ``None`` waits another period.
 
-Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`).
+Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). The per-view state,
+the rigid fit and the fusion helpers live in :mod:`.lk_state`.
 """
 
 from __future__ import annotations
@@ -58,40 +59,19 @@ from code_as_monitor.perception.trackers.base import (
     TrackResult,
     views_containing,
 )
+from code_as_monitor.perception.trackers.lk_state import (
+    ViewState,
+    cam_z,
+    gray_of,
+    inside,
+    kabsch,
+    nanmean,
+    nanmedian_axis,
+    slots,
+    tip_of,
+)
 
 _RIGID_KINDS = (ElementKind.LINE, ElementKind.SURFACE)
-
-
-def kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Least-squares rigid transform with ``dst ≈ src @ R.T + t``.
-
-    Args:
-        src, dst: (n, 3) corresponding points, n >= 3.
-    Returns:
-        R (3, 3) proper rotation, t (3,), RMS residual (metres).
-    """
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
-    R = Vt.T @ D @ U.T
-    t = cd - cs @ R.T
-    rms = float(np.sqrt(((src @ R.T + t - dst) ** 2).sum(axis=1).mean()))
-    return R, t, rms
-
-
-class _ViewState:
-    """Per-view tracking state over the M flattened element points."""
-
-    def __init__(self, m: int) -> None:
-        self.gray: np.ndarray | None = None  # (H, W) uint8, current frame
-        self.key: np.ndarray | None = None  # (H, W) uint8, key frame the templates come from
-        self.key_uv = np.zeros((m, 2), dtype=np.float32)  # anchor pixels in the key frame
-        self.rekey = True  # make the current frame the key frame at the end of this step
-        self.uv = np.zeros((m, 2), dtype=np.float32)  # anchor pixels, current frame
-        self.active = np.zeros(m, dtype=bool)  # tracked in this view
-        self.offset = np.zeros((m, 3))  # world-frame offset point - lift(anchor)
-        self.xyz = np.full((m, 3), np.nan)  # lift(anchor) at its last update, world metres
-        self.z = np.zeros(m)  # depth reading at the anchor last frame, metres
 
 
 class LKTracker(Tracker):
@@ -110,7 +90,7 @@ class LKTracker(Tracker):
         self._tip: np.ndarray | None = None  # end-effector tip at the previous frame, world
         self._elements: dict[int, Element] = {}
         self._anchors: dict[int, KinematicAnchor] = {}
-        self._views: dict[str, _ViewState] = {}
+        self._views: dict[str, ViewState] = {}
         self._slices: dict[int, slice] = {}
         self.P = np.zeros((0, 3))  # (M, 3) current points, world metres
         self.ref = np.zeros((0, 3))  # (M, 3) reference shape for the rigid fit
@@ -138,14 +118,14 @@ class LKTracker(Tracker):
             else:
                 tracked.append(el)
         self._order = [el.id for el in elements]
-        self._tip = _tip_of(obs)
+        self._tip = tip_of(obs)
         self._elements = {el.id: el for el in elements}
         self._layout(tracked)
         for name, view in obs.views.items():
-            st = self._views[name] = _ViewState(len(self.P) * self._K)
-            st.gray = self._gray(view)
+            st = self._views[name] = ViewState(len(self.P) * self._K)
+            st.gray = gray_of(view)
             self._seed(view, st, np.ones(len(self.P), dtype=bool))
-            self._rekey(st)
+            st.make_key()
 
     def step(self, obs: Observation) -> TrackResult:
         c = self.config
@@ -153,25 +133,25 @@ class LKTracker(Tracker):
         for name in [n for n in self._views if n not in obs.views]:
             del self._views[name]  # a view that dropped out is re-seeded when it returns
         est = np.full((len(obs.views), m * K, 3), np.nan)  # per view, per anchor slot
-        tip = _tip_of(obs)
+        tip = tip_of(obs)
         ee_delta = tip - self._tip if (tip is not None and self._tip is not None) else None
         self._tip = tip
         for k, (name, view) in enumerate(obs.views.items()):
-            gray = self._gray(view)
+            gray = gray_of(view)
             st = self._views.get(name)
             if st is None:
-                st = self._views[name] = _ViewState(m * K)
+                st = self._views[name] = ViewState(m * K)
             st.gray = gray
             if st.active.any() and st.key is not None:
                 self._track(view, st, est[k], ee_delta)
-        per_view = _nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
+        per_view = nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
         observed = np.isfinite(per_view[:, :, 0])  # (V, M)
         ok = observed.any(axis=0)
         if c.fusion == "median":
             fused = np.full((m, 3), np.nan)
             fused[ok] = np.nanmedian(per_view[:, ok], axis=0)
         else:
-            fused = _nanmean(per_view, observed)
+            fused = nanmean(per_view, observed)
         self._update_points(fused, ok)
         visible = {eid: int(observed[:, sl].any(axis=1).sum()) for eid, sl in self._slices.items()}
         fresh = ~self.stale
@@ -180,7 +160,7 @@ class LKTracker(Tracker):
             alive = st.active.reshape(m, K).sum(axis=1) if m else np.zeros(0, dtype=int)
             self._seed(view, st, fresh & (alive < max(1.0, c.reseed_below * K)))
             if st.rekey:
-                self._rekey(st)
+                st.make_key()
         self._maybe_reacquire(obs)
         return self._result(obs, visible)
 
@@ -196,30 +176,7 @@ class LKTracker(Tracker):
         self.stale = np.zeros(len(self.P), dtype=bool)
         self._stale_frames = {el.id: 0 for el in tracked}
 
-    @staticmethod
-    def _gray(view: View) -> np.ndarray:
-        return cv2.cvtColor(view.rgb, cv2.COLOR_RGB2GRAY)
-
-    def _cam_z(self, view: View, pts: np.ndarray) -> np.ndarray:
-        T = view.camera.T_world_cam
-        return (pts - T[:3, 3]) @ T[:3, 2]
-
-    def _inside(self, view: View, uv: np.ndarray) -> np.ndarray:
-        b = self.config.border_px
-        cam = view.camera
-        return (
-            np.isfinite(uv).all(axis=1)
-            & (uv[:, 0] >= b) & (uv[:, 0] <= cam.width - 1 - b)
-            & (uv[:, 1] >= b) & (uv[:, 1] <= cam.height - 1 - b)
-        )
-
-    @staticmethod
-    def _rekey(st: _ViewState) -> None:
-        st.key = st.gray
-        st.key_uv[:] = st.uv
-        st.rekey = False
-
-    def _track(self, view: View, st: _ViewState, est: np.ndarray, ee_delta: np.ndarray | None = None) -> None:
+    def _track(self, view: View, st: ViewState, est: np.ndarray, ee_delta: np.ndarray | None = None) -> None:
         """LK key frame -> current and back for the view's active points; writes estimates (M, 3) into ``est``.
 
         With ``ee_delta`` (the tip's motion since the last frame, world metres), anchors near the tip are
@@ -255,10 +212,10 @@ class LKTracker(Tracker):
                 better = fb < best_fb
                 best_p1[better], best_fb[better] = p1[better], fb[better]
         p1, fb = best_p1, best_fb
-        good = (fb <= c.fb_threshold_px) & self._inside(view, p1)
+        good = (fb <= c.fb_threshold_px) & inside(view, c.border_px, p1)
         lifted, valid = self._lift(p1, view.depth, view.camera, c.max_depth)
         good &= valid
-        z = np.where(valid, self._cam_z(view, np.nan_to_num(lifted)), np.nan)
+        z = np.where(valid, cam_z(view, np.nan_to_num(lifted)), np.nan)
         prev_z = st.z[idx]
         if len(guesses) > 1:  # a held object's depth follows the tip's motion along the optical axis
             prev_z = prev_z + np.where(np.isfinite(st.xyz[idx, 0]), ee_delta @ view.camera.T_world_cam[:3, 2], 0.0)
@@ -273,7 +230,7 @@ class LKTracker(Tracker):
         if gi.size and np.abs(st.uv[gi] - st.key_uv[gi]).max() > c.rekey_px:
             st.rekey = True
 
-    def _seed(self, view: View, st: _ViewState, want: np.ndarray) -> None:
+    def _seed(self, view: View, st: ViewState, want: np.ndarray) -> None:
         """Start tracking the points ``want`` (M,) bool in ``view`` where they are visible.
 
         Slot 0 of a point is its own pixel (or the nearest within ``seed_search_px`` seeing it); the
@@ -288,10 +245,10 @@ class LKTracker(Tracker):
         n, s = len(idx), len(self._search)
         cand = (uv0[:, None, :] + self._search[None]).reshape(-1, 2)  # (n*s, 2), search[0] = (0, 0)
         lifted, valid = self._lift(cand, view.depth, view.camera, c.max_depth)
-        valid &= self._inside(view, cand) & np.repeat(zp > 0, s)
+        valid &= inside(view, c.border_px, cand) & np.repeat(zp > 0, s)
         lifted = lifted.reshape(n, s, 3)
         valid = valid.reshape(n, s)
-        zr = self._cam_z(view, np.nan_to_num(lifted[:, 0]))
+        zr = cam_z(view, np.nan_to_num(lifted[:, 0]))
         d = zp - zr  # > 0: the surface reading is in front of the point
         exact = valid[:, 0] & (d >= -c.occlusion_tol) & (d <= c.occlusion_tol + c.inside_tol)
         dist = np.where(valid, np.linalg.norm(lifted - P[:, None], axis=2), np.inf)
@@ -308,7 +265,7 @@ class LKTracker(Tracker):
         anchor_lift = lifted[rows, pick[rows]]
         st.uv[sel] = cand.reshape(n, s, 2)[rows, pick[rows]]
         st.offset[sel] = P[rows] - anchor_lift
-        st.z[sel] = self._cam_z(view, anchor_lift)
+        st.z[sel] = cam_z(view, anchor_lift)
         st.xyz[sel] = anchor_lift
         st.active[sel] = True
         seeded = bool(sel.size)
@@ -316,14 +273,14 @@ class LKTracker(Tracker):
             seeded |= self._seed_extra(view, st, idx, P, uv0, zp)
         st.rekey |= seeded
 
-    def _seed_extra(self, view: View, st: _ViewState, idx: np.ndarray, P: np.ndarray, uv0: np.ndarray,
+    def _seed_extra(self, view: View, st: ViewState, idx: np.ndarray, P: np.ndarray, uv0: np.ndarray,
                     zp: np.ndarray) -> bool:
         """Fill slots 1..K-1 of points ``idx`` with surface pixels within ``anchor_radius`` of them."""
         c, K = self.config, self._K
         n, r = len(idx), len(self._ring)
         cand = (uv0[:, None, :] + self._ring[None]).reshape(-1, 2)
         lifted, valid = self._lift(cand, view.depth, view.camera, c.max_depth)
-        valid &= self._inside(view, cand) & np.repeat(zp > 0, r)
+        valid &= inside(view, c.border_px, cand) & np.repeat(zp > 0, r)
         lifted = lifted.reshape(n, r, 3)
         valid = valid.reshape(n, r)
         dist = np.where(valid, np.linalg.norm(lifted - P[:, None], axis=2), np.inf)
@@ -337,7 +294,7 @@ class LKTracker(Tracker):
             sl = np.arange(base, base + len(take))
             st.uv[sl] = cand.reshape(n, r, 2)[row, take]
             st.offset[sl] = P[row] - lifted[row, take]
-            st.z[sl] = self._cam_z(view, lifted[row, take])
+            st.z[sl] = cam_z(view, lifted[row, take])
             st.xyz[sl] = lifted[row, take]
             st.active[sl] = True
             any_seeded = True
@@ -390,12 +347,12 @@ class LKTracker(Tracker):
             self._views = {}
             K = self._K
             for name, ost in old_views.items():
-                st = self._views[name] = _ViewState(len(self.P) * K)
+                st = self._views[name] = ViewState(len(self.P) * K)
                 st.gray, st.key, st.key_uv[:] = ost.gray, ost.key, 0.0
                 for eid, o in old_slices.items():
                     if eid != new.id:
-                        nsl = _slots(self._slices[eid], K)
-                        osl = _slots(o, K)
+                        nsl = slots(self._slices[eid], K)
+                        osl = slots(o, K)
                         st.uv[nsl], st.active[nsl], st.key_uv[nsl] = ost.uv[osl], ost.active[osl], ost.key_uv[osl]
                         st.offset[nsl], st.z[nsl], st.xyz[nsl] = ost.offset[osl], ost.z[osl], ost.xyz[osl]
             for eid, osl in old_slices.items():
@@ -412,10 +369,10 @@ class LKTracker(Tracker):
         want[sl] = True
         for name, view in obs.views.items():
             st = self._views[name]
-            st.active[_slots(sl, self._K)] = False
+            st.active[slots(sl, self._K)] = False
             self._seed(view, st, want)
             if st.rekey and st.gray is not None:
-                self._rekey(st)  # the new anchors' templates come from this frame
+                st.make_key()  # the new anchors' templates come from this frame
 
     def _result(self, obs: Observation, visible_tracked: dict[int, int]) -> TrackResult:
         points: dict[int, np.ndarray] = {}
@@ -432,34 +389,3 @@ class LKTracker(Tracker):
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
         return TrackResult(obs.t, points, stale, visible)
-
-
-def _tip_of(obs: Observation) -> np.ndarray | None:
-    """The end-effector tip (3,) in the world frame, or None without robot state."""
-    if obs.robot is None:
-        return None
-    p = obs.robot.ee_points.get("tip")
-    return np.asarray(p if p is not None else obs.robot.ee_pose[:3, 3], dtype=np.float64).reshape(3)
-
-
-def _slots(sl: slice, k: int) -> slice:
-    """The anchor-slot slice of the point slice ``sl`` with ``k`` anchors per point."""
-    return slice(sl.start * k, sl.stop * k)
-
-
-def _nanmedian_axis(a: np.ndarray, axis: int) -> np.ndarray:
-    """``np.nanmedian`` without the all-NaN warning (all-NaN slices give NaN)."""
-    with np.errstate(invalid="ignore"):
-        import warnings
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            return np.nanmedian(a, axis=axis)
-
-
-def _nanmean(est: np.ndarray, observed: np.ndarray) -> np.ndarray:
-    """Mean over views (axis 0) of (V, M, 3) estimates ignoring NaN; NaN where no view observed."""
-    n = observed.sum(axis=0)
-    s = np.where(observed[:, :, None], est, 0.0).sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return s / n[:, None]

@@ -1,0 +1,317 @@
+"""Depth tracker: each element's object or part followed in 3-D by registering its painted cloud to the
+current depth images of all views (small_gicp), with no per-frame segmentation and no simulator pose.
+
+Bodies. Elements are grouped by owner ``(object, part)``; each group is one rigid *body* whose model is
+the owner's cloud at paint time (``Element.cloud``: the part's mask for a part, the instance's for a
+whole object). A part element whose element also carries the whole object's cloud
+(``Element.object_cloud``) gets that object as its *parent* body: the parent is registered first and
+its motion is one of the part's guesses, so a part rigid with its object (a block's top, a teapot's
+lid) moves with the well-constrained whole, while a part that moves on its own (a drawer handle on a
+prismatic drawer, a rope bead) is registered from its own cloud and wins by its own evidence.
+An element's points move with its body's pose: ``p_now = T_body @ p_painted``.
+
+Per frame and body:
+
+1. guesses of the pose: where it was; where the end-effector's motion since the last frame took it,
+   when the gripper or suction is on and the tip was within ``held_distance`` of the body; the parent's
+   motion; constant velocity and a ballistic fall, when it moved last frame (a just-released held body
+   is tried a free-fall step below the gripper too);
+2. the depth images are cropped around the guesses (image box + world box), points on the support
+   plane (the dominant plane, fitted at reset) and on the end-effector (a cylinder up the tool axis from
+   the tip) are removed, and the rest is voxel-downsampled: the registration source;
+3. from each guess in turn, coarse-to-fine ICP (``registration``, ``max_correspondence``) of the source
+   to the body's model; each result is checked projectively (:func:`.depth_body.support`): enough
+   model points must be seen at their predicted depth (``min_seen``, ``min_seen_frac`` of the count
+   seen at paint time) and few contradicted by a reading behind them (``max_contradiction``). The
+   first guess whose registration barely moved it and passes ends the search; otherwise the passing
+   result with the most evidence wins;
+4. no passing result: the body is *lost* this frame and its elements are stale (they keep their last
+   good points; nothing is guessed). A lost body keeps being searched from its last pose (and, while
+   held, from where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by
+   :meth:`set_reacquire` re-segments its elements (the agent re-runs the painter); the returned
+   elements' clouds become the body's new model.
+
+Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). An element
+without a cloud (not built from masks) cannot be registered: it is stale until the hook re-paints it.
+A view whose depth or camera is unusable is skipped for the frame with a logged warning.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from code_as_monitor.core.elements import Element
+from code_as_monitor.core.errors import CamError, PerceptionError
+from code_as_monitor.core.observation import Observation
+from code_as_monitor.perception.trackers.base import (
+    DepthTrackerConfig,
+    KinematicAnchor,
+    Tracker,
+    TrackResult,
+    views_containing,
+)
+from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, support
+from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
+from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, fit_support_plane
+
+log = logging.getLogger(__name__)
+
+
+class DepthTracker(Tracker):
+    """Streaming multi-view depth-registration tracker (see the module docstring)."""
+
+    def __init__(self, config: DepthTrackerConfig | None = None) -> None:
+        super().__init__()
+        self.config = config or DepthTrackerConfig()
+        self._order: list[int] = []
+        self._elements: dict[int, Element] = {}
+        self._anchors: dict[int, KinematicAnchor] = {}
+        self._bodies: dict[Owner, BodyState] = {}
+        self._local: dict[int, np.ndarray] = {}  # element id -> (k, 3) model-frame points
+        self._body_of: dict[int, Owner | None] = {}  # None: no cloud, never registered
+        self._last: dict[int, np.ndarray] = {}  # element id -> last reported points
+        self._plane: Plane | None = None
+        self._ee: np.ndarray | None = None  # (4, 4) end-effector pose at the previous frame
+        self._t: float | None = None
+        self._warned: set[str] = set()
+        self._unbodied: dict[int, int] = {}  # element id -> stale frames, for elements without a body
+        self._fresh: set[int] = set()  # elements re-painted this frame (fresh although their body is new)
+        self._frame = 0  # frames seen since construction (orders the bodies' paint times)
+
+    # --- public API -------------------------------------------------------------------------------
+    def reset(self, obs: Observation, elements: list[Element]) -> None:
+        self._order = [el.id for el in elements]
+        self._elements = {el.id: el for el in elements}
+        self._anchors.clear()
+        self._bodies.clear()
+        self._local.clear()
+        self._body_of.clear()
+        self._unbodied.clear()
+        self._fresh.clear()
+        self._last = {el.id: el.points.copy() for el in elements}
+        views = self._usable_views(obs)
+        self._plane = fit_support_plane(views, self.config.plane_band, self.config.max_depth)
+        for el in elements:
+            if el.owner[0] in self.config.kinematic_owners:
+                self._anchors[el.id] = KinematicAnchor(obs, el)
+            else:
+                self._attach(el, views)
+        self._ee = _ee_pose(obs)
+        self._t = obs.t
+
+    def step(self, obs: Observation) -> TrackResult:
+        c = self.config
+        self._frame += 1
+        views = self._usable_views(obs)
+        ee = _ee_pose(obs)
+        dT_ee = ee @ invert(self._ee) if (ee is not None and self._ee is not None) else None
+        on = obs.robot is not None and float(obs.robot.gripper) >= 0.5
+        tool = _tool(obs, ee, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
+        dt = obs.t - self._t if self._t is not None else 0.0
+        moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
+        for owner in self._ordered_bodies():
+            body = self._bodies[owner]
+            if not body.elements and body.lost and body.lost_frames > c.reacquire_after:
+                continue  # a whole object only its parts use, lost for good (a rope that bent): parts go alone
+            related = []
+            if body.parent is not None:  # parts of the same object that moved, then the whole object
+                related = self._nearest_moved(body, moves, c.related_parts)
+                if body.parent in moves:
+                    related.append(moves[body.parent])
+            before = body.T.copy()
+            track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool)
+            if not body.lost:
+                moves[owner] = body.T @ invert(before)
+        self._resolve_overlaps()
+        self._update_held(obs, on)
+        self._ee = ee
+        self._t = obs.t
+        self._maybe_reacquire(obs, views)
+        return self._result(obs)
+
+    # --- bodies -----------------------------------------------------------------------------------
+    def _attach(self, el: Element, views: list[ViewData]) -> None:
+        """Put element ``el`` on its body (created from its clouds when new)."""
+        obj, part = el.owner
+        cloud = getattr(el, "cloud", None)
+        obj_cloud = getattr(el, "object_cloud", None)
+        if cloud is None or len(cloud) == 0:
+            cloud, obj_cloud = (obj_cloud, None) if obj_cloud is not None and not part else (None, None)
+        self._local[el.id] = el.points.copy()
+        if cloud is None:
+            self._body_of[el.id] = None
+            return
+        owner = (obj, part)
+        parent: Owner | None = None
+        if part and obj_cloud is not None and len(obj_cloud) and obj_cloud is not cloud:
+            parent = (obj, "")
+            if parent not in self._bodies or self._bodies[parent].lost:
+                self._bodies[parent] = self._new_body(parent, obj_cloud, views, None)
+        body = self._bodies.get(owner)
+        if body is None or body.model is None or body.lost or not np.allclose(body.T, np.eye(4)):
+            keep = body.elements if body is not None else []
+            body = self._bodies[owner] = self._new_body(owner, cloud, views, parent)
+            body.elements = [i for i in keep if i != el.id]
+            for i in body.elements:  # the others' points were in the old model frame
+                self._local[i] = self._last[i].copy()
+        body.elements.append(el.id)
+        self._body_of[el.id] = owner if body.model is not None else None
+
+    def _new_body(self, owner: Owner, cloud: np.ndarray, views: list[ViewData], parent: Owner | None) -> BodyState:
+        c = self.config
+        try:
+            model = RigidBody(cloud, c.voxel, self._plane, c.plane_band, c.min_points, c.max_model_points)
+        except CamError as exc:
+            log.info("body %s/%s cannot be tracked: %s", owner[0], owner[1] or "*", exc)
+            return BodyState(owner, None, parent, lost=True)
+        seen = support(model.points, views, c.depth_tol, c.max_depth)
+        return BodyState(owner, model, parent, ref_seen=max(seen.seen, c.min_seen), seen_views=seen.views,
+                     painted=self._frame)
+
+    def _ordered_bodies(self) -> list[Owner]:
+        """Whole objects first, then held parts (their motion is known best), then the other parts."""
+        return sorted(self._bodies, key=lambda o: (self._bodies[o].parent is not None, not self._bodies[o].held))
+
+    def _nearest_moved(self, body: BodyState, moves: dict[Owner, np.ndarray], k: int) -> list[np.ndarray]:
+        """This frame's motions of up to ``k`` other parts of ``body``'s object that moved it, nearest first."""
+        if body.model is None or k <= 0:
+            return []
+        here = apply(body.T, body.model.centre[None])[0]
+        cands = []
+        for o, m in moves.items():
+            other = self._bodies[o]
+            if o[0] != body.owner[0] or not o[1] or o == body.owner or other.model is None or not moves_body(m, body):
+                continue
+            cands.append((float(np.linalg.norm(apply(other.T, other.model.centre[None])[0] - here)), m))
+        return [m for _, m in sorted(cands, key=lambda x: x[0])[:k]]
+
+    def _resolve_overlaps(self) -> None:
+        """Two bodies of different objects cannot occupy the same space: when one's model points mostly
+        lie on the other's surface (an identical block slid onto its neighbour), the body painted
+        longer ago, or on a tie the one that moved further this frame, is lost."""
+        c = self.config
+        live = [b for b in self._bodies.values() if b.model is not None and not b.lost]
+        if len(live) < 2:
+            return
+        centres = np.array([apply(b.T, b.model.centre[None])[0] for b in live])  # type: ignore[union-attr]
+        radii = np.array([b.model.radius for b in live])  # type: ignore[union-attr]
+        near = np.linalg.norm(centres[:, None] - centres[None], axis=2) <= radii[:, None] + radii[None]
+        for i, j in zip(*np.nonzero(np.triu(near, 1))):
+            a, b = live[i], live[j]
+            if a.owner[0] == b.owner[0] or a.lost or b.lost:
+                continue
+            assert a.model is not None and b.model is not None
+            small, big = (a, b) if len(a.model.points) <= len(b.model.points) else (b, a)
+            P = apply(invert(big.T) @ small.T, small.model.points)  # type: ignore[union-attr]
+            _, d2 = big.model.tree.batch_nearest_neighbor_search(P)  # type: ignore[union-attr]
+            if np.mean(np.sqrt(np.asarray(d2)) <= c.depth_tol) < c.max_overlap:
+                continue
+            loser = min((a, b), key=lambda x: (x.painted, -x.moved))  # painted earlier, else moved further
+            log.debug("bodies %s and %s overlap: %s lost", a.owner, b.owner, loser.owner)
+            loser.T, loser.T_search = loser.T_prev, loser.T_prev
+            loser.lost, loser.lost_frames, loser.seen_views = True, loser.lost_before + 1, 0
+
+    def _update_held(self, obs: Observation, on: bool) -> None:
+        tip = _tip(obs) if obs.robot is not None else None
+        for body in self._bodies.values():
+            if body.model is None or tip is None or not on:
+                body.held = False
+                continue
+            P = apply(body.T_search if body.lost else body.T, body.model.points)
+            body.held = bool(np.min(np.linalg.norm(P - tip, axis=1)) <= self.config.held_distance)
+
+    # --- re-acquisition ---------------------------------------------------------------------------
+    def _maybe_reacquire(self, obs: Observation, views: list[ViewData]) -> None:
+        c = self.config
+        for eid in self._order:
+            owner = self._body_of.get(eid, "robot")
+            if owner == "robot" or eid in self._anchors:
+                continue
+            body = self._bodies.get(owner) if owner is not None else None
+            if body is not None and not body.lost:
+                continue
+            frames = body.lost_frames if body is not None else self._stale_count(eid)
+            if self._reacquire is None or frames <= c.reacquire_after:
+                continue
+            if body is not None:
+                body.lost_frames = 0  # retry only after another period
+            else:
+                self._unbodied[eid] = 0
+            old = self._elements[eid]
+            new = self._reacquire(obs, Element(old.id, old.name, old.kind, self._last[eid].copy(), old.owner,
+                                               old.color))
+            if new is None:
+                continue
+            if new.id != eid:
+                raise PerceptionError(f"reacquire hook returned element {new.id} for element {eid}")
+            self._elements[eid] = new
+            self._last[eid] = new.points.copy()
+            if body is not None and eid in body.elements:
+                body.elements.remove(eid)
+            self._attach(new, views)
+            self._fresh.add(eid)
+
+    def _stale_count(self, eid: int) -> int:
+        """Frames an element without a body has been stale (counted here, as it has no body)."""
+        self._unbodied[eid] = self._unbodied.get(eid, 0) + 1
+        return self._unbodied[eid]
+
+    # --- views, plane, result ---------------------------------------------------------------------
+    def _usable_views(self, obs: Observation) -> list[ViewData]:
+        out = []
+        for name, view in obs.views.items():
+            try:
+                data = ViewData(view)
+            except CamError as exc:
+                if name not in self._warned:
+                    log.warning("depth tracker: view %r skipped: %s", name, exc)
+                    self._warned.add(name)
+                continue
+            out.append(data)
+        return out
+
+    def _result(self, obs: Observation) -> TrackResult:
+        points: dict[int, np.ndarray] = {}
+        stale: dict[int, np.ndarray] = {}
+        visible: dict[int, int] = {}
+        for eid in self._order:
+            if eid in self._anchors:
+                points[eid] = self._anchors[eid].points(obs)
+                stale[eid] = np.zeros(len(points[eid]), dtype=bool)
+                visible[eid] = views_containing(obs, points[eid])
+                continue
+            owner = self._body_of.get(eid)
+            body = self._bodies.get(owner) if owner is not None else None
+            fresh = eid in self._fresh
+            if body is not None and not body.lost:
+                self._last[eid] = apply(body.T, self._local[eid])
+                fresh = True
+            points[eid] = self._last[eid].copy()
+            stale[eid] = np.full(len(points[eid]), not fresh)
+            visible[eid] = body.seen_views if (body is not None and not body.lost) else 0
+        self._fresh.clear()
+        return TrackResult(obs.t, points, stale, visible)
+
+
+def _ee_pose(obs: Observation) -> np.ndarray | None:
+    return None if obs.robot is None else np.asarray(obs.robot.ee_pose, dtype=np.float64)
+
+
+def _tool(obs: Observation, ee: np.ndarray, radius: float, margin: float) -> tuple:
+    """The end-effector's exclusion cylinder: ``(tip, axis into the tool, radius, margin)``; the radius
+    grows to hold the named end-effector points (a gripper's jaws) with 1.5 cm to spare."""
+    tip = _tip(obs)
+    axis = -ee[:3, 2]
+    assert obs.robot is not None
+    for p in obs.robot.ee_points.values():
+        rel = np.asarray(p, dtype=np.float64).reshape(3) - tip
+        radius = max(radius, float(np.linalg.norm(rel - (rel @ axis) * axis)) + 0.015)
+    return tip, axis, radius, margin
+
+
+def _tip(obs: Observation) -> np.ndarray:
+    assert obs.robot is not None
+    p = obs.robot.ee_points.get("tip")
+    return np.asarray(p if p is not None else obs.robot.ee_pose[:3, 3], dtype=np.float64).reshape(3)

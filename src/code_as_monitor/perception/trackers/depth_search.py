@@ -1,0 +1,219 @@
+"""One body's frame in the depth tracker: its state, the guesses of its pose, and the search.
+
+See :mod:`code_as_monitor.perception.trackers.depth` for the method. Poses are (4, 4) rigid transforms
+from the body's model frame (the world at paint time) to the world now.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from code_as_monitor.perception.trackers.base import DepthTrackerConfig
+from code_as_monitor.perception.trackers.depth_body import RigidBody, Support, apply, invert, register, support
+from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, crop_scene
+
+Owner = tuple[str, str]
+
+
+@dataclass
+class BodyState:
+    """Tracking state of one rigid body (an object or a part)."""
+
+    owner: Owner
+    model: RigidBody | None
+    parent: Owner | None = None
+    T: np.ndarray = field(default_factory=lambda: np.eye(4))  # last good pose, model frame -> world
+    T_prev: np.ndarray = field(default_factory=lambda: np.eye(4))  # the good pose before it
+    T_search: np.ndarray = field(default_factory=lambda: np.eye(4))  # where a lost body is searched
+    ref_seen: int = 1  # model points seen at paint time
+    lost: bool = False
+    lost_frames: int = 0
+    lost_before: int = 0  # lost_frames before this frame's success (an overlap loss continues the count)
+    moved: float = 0.0  # metres the last good step moved the model's centre
+    held: bool = False  # within held_distance of the tip with the gripper on, last frame
+    seen_views: int = 0
+    last: Support | None = None  # evidence of the last good pose, in its frame
+    painted: int = 0  # frame counter value when the model was painted (later = more recent evidence)
+    elements: list[int] = field(default_factory=list)
+
+
+def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], plane: Plane | None,
+               dT_ee: np.ndarray | None, related: list[np.ndarray], dt: float, tool: tuple | None) -> None:
+    """One frame of one body: accept its unmoved (or object-carried) pose when the frame sees it as well
+    as the last, else crop the scene around its guesses and search; update the body's state.
+
+    Args:
+        dT_ee: the end-effector's motion since the last frame (4, 4, world), when the body is held.
+        related: this frame's motions (4, 4, world) of the other parts of its object, then of the object.
+        dt: seconds since the last frame.
+        tool: see :func:`.depth_views.crop_scene`.
+    """
+    if body.model is None:
+        return
+    found: tuple[np.ndarray, Support] | None = None
+    if views and not body.lost and dT_ee is None and body.last is not None:
+        # At rest, or (a part) carried along rigidly by its object: no registration needed.
+        found = _unmoved(c, body, views, related[-1] if body.parent is not None and related else None)
+    guesses = _guesses(c, body, dT_ee, related, dt)
+    if views and found is None:
+        boxes = [apply(T, body.model.box) for tier in guesses for T in tier]
+        scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
+                           None if body.model.in_plane else plane, c.plane_band, tool)
+        if len(scene) >= c.min_points:
+            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane)
+    if found is None:
+        body.lost = True
+        body.lost_frames += 1
+        body.seen_views = 0
+        body.T_search = dT_ee @ body.T_search if dT_ee is not None else body.T_search
+        return
+    T, sup = found
+    body.last = sup
+    body.moved = float(np.linalg.norm(apply(T, body.model.centre[None]) - apply(body.T, body.model.centre[None])))
+    body.T_prev, body.T, body.T_search = body.T, T, T
+    body.lost, body.lost_before, body.lost_frames, body.seen_views = False, body.lost_frames, 0, sup.views
+
+def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, related: list[np.ndarray],
+             dt: float) -> list[list[np.ndarray]]:
+    """Candidate poses in two tiers, most likely first. First: carried by the end-effector; moved like the
+    parts of the same object already registered this frame (a drawer with its handle) and like the whole
+    object; where it was; at constant velocity. Then, tried only when none of those fits (a fall is the
+    less likely explanation; a fall guess that lands on an identical block must not win over a carried
+    block's own pose): falling at constant acceleration; dropped from the gripper."""
+    T0 = body.T_search if body.lost else body.T
+    out: list[np.ndarray] = []
+    falls: list[np.ndarray] = []
+    if dT_ee is not None:
+        out.append(dT_ee @ T0)
+    for M in related:  # the motion as estimated, and its translation of this body's centre alone
+        out.append(M @ T0)
+        ctr = apply(T0, body.model.centre[None])[0] if body.model is not None else np.zeros(3)
+        shifted = T0.copy()
+        shifted[:3, 3] += apply(M, ctr[None])[0] - ctr
+        out.append(shifted)
+    out.append(T0)
+    if not body.lost and body.moved > c.moving:
+        step = body.T @ invert(body.T_prev)
+        out.append(step @ T0)
+        fall = step @ T0
+        fall[2, 3] -= c.gravity * dt * dt
+        falls.append(fall)
+    if dT_ee is not None:  # released: a free-fall step below where the gripper took it
+        drop = dT_ee @ T0
+        drop[2, 3] -= 0.5 * c.gravity * dt * dt
+        falls.append(drop)
+    r = body.model.radius if body.model is not None else 0.05
+    first = _distinct(out, r)
+    return [first, [T for T in _distinct(first + falls, r) if not any(T is S for S in first)]]
+
+def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
+             parent_move: np.ndarray | None) -> tuple[np.ndarray, Support] | None:
+    """The last pose (moved with the parent object when given), when the new frame sees the body there
+    as well as the last frame saw it (no registration: most bodies are at rest most of the time, and a
+    part mostly moves with its object)."""
+    last = body.last
+    assert body.model is not None and last is not None
+    T = body.T.copy() if parent_move is None else parent_move @ body.T
+    sup = support(apply(T, body.model.points), views, c.depth_tol, c.max_depth)
+    if (sup.seen >= c.unmoved_seen * last.seen
+            and sup.contradicted <= last.contradicted + max(2, 0.02 * last.seen)
+            and sup.residual <= last.residual + c.unmoved_residual):
+        return T, last if parent_move is None else sup  # at rest the evidence stays the registration's
+    return None
+
+def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
+            tiers: list[list[np.ndarray]], plane: Plane | None = None) -> tuple[np.ndarray, Support] | None:
+    """Register from each guess of a tier in order (most likely first), first with the finest
+    correspondence distance only (a guess already close must not be pulled off by a neighbour's
+    surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
+    coarser start (``fall_correspondence``) and with a higher bar (``fall_seen_frac``). The search
+    stops at a passing result with as much evidence as the last frame had; otherwise the passing result
+    with the most evidence wins (a static cabinet frame does not follow its drawer: the drawer's motion
+    passes for it but fits worse than staying put). A pose that sinks the body more than ``plane_band``
+    into the support ``plane`` is refused: points behind a surface are only occluded to the cameras."""
+    import small_gicp
+
+    model = body.model
+    assert model is not None
+    source = small_gicp.voxelgrid_sampling(scene, model.voxel)
+    if source.size() > 2 * c.max_model_points:  # a crop bigger than the body: a coarser grid
+        coarser = model.voxel * np.sqrt(source.size() / (2 * c.max_model_points))
+        source = small_gicp.voxelgrid_sampling(scene, coarser)
+    if source.size() < max(16, c.min_points):  # too little to register (small_gicp warns at 10)
+        return None
+    if c.registration == "GICP":
+        small_gicp.estimate_covariances(source, num_neighbors=10)
+    need = max(c.min_seen, int(c.min_seen_frac * body.ref_seen))
+    fine = c.max_correspondence[-1:]
+    guesses = [T for tier in tiers for T in tier]
+    at_guess: list[Support | None] = [None] * len(guesses)
+    best: tuple[np.ndarray, Support] | None = None
+    coarse = c.max_correspondence if len(c.max_correspondence) > 1 else None
+    passes = [(0, fine)] + ([(0, coarse)] if coarse else [])
+    if len(tiers) > 1:  # a fall: far from every guess; it must explain the frame about as well as before
+        passes.append((1, (c.fall_correspondence, *c.max_correspondence)))
+    fall_need = max(need, int(c.fall_seen_frac * (body.last.seen if body.last is not None else body.ref_seen)))
+    start = np.cumsum([0] + [len(t) for t in tiers])
+    for tier, rounds in passes:
+        last = start[tier + 1] if rounds is fine or tier else min(start[tier + 1], start[tier] + 2)
+        for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
+            T0 = guesses[i]
+            T, _ = register(model, source, T0, c.registration, rounds, c.max_iterations, c.min_information)
+            sup = support(apply(T, model.points), views, c.depth_tol, c.max_depth)
+            if at_guess[i] is None:
+                at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
+            g = at_guess[i]
+            assert g is not None
+            if _score(g) > _score(sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
+                T, sup = T0, g  # made worse, or turned further than a body turns between two frames
+            if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
+                continue
+            if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
+                continue  # sunk into the support plane: the cameras cannot see that, but it is solid
+            if best is None or _score(sup) > _score(best[1]):
+                best = (T, sup)
+            if _as_good_as_last(c, body, sup):
+                return best
+        if best is not None:
+            return best
+    return best
+
+def _as_good_as_last(c: DepthTrackerConfig, body: BodyState, sup: Support) -> bool:
+    """Whether ``sup`` is as much evidence as the body's last good pose had (the search may stop)."""
+    last = body.last
+    if last is None:
+        return False
+    return (sup.seen >= c.unmoved_seen * last.seen
+            and sup.contradicted <= last.contradicted + max(2, 0.01 * last.seen))
+
+
+def moves_body(M: np.ndarray, body: BodyState) -> bool:
+    """Whether the rigid motion ``M`` (4, 4) moves ``body``'s model centre by more than 1 mm."""
+    if body.model is None:
+        return False
+    c = apply(body.T, body.model.centre[None])
+    return bool(np.linalg.norm(apply(M, c) - c) > 1e-3)
+
+
+def _angle(A: np.ndarray, B: np.ndarray) -> float:
+    """Degrees between the rotations of two poses (4, 4)."""
+    R = A[:3, :3].T @ B[:3, :3]
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def _score(s: Support) -> float:
+    """Evidence of a pose: points seen, a contradicted point costing three seen ones."""
+    return s.seen - 3.0 * s.contradicted
+
+
+def _distinct(poses: list[np.ndarray], radius: float) -> list[np.ndarray]:
+    """``poses`` without near-duplicates (within 3 mm at the body's extent), first occurrence kept."""
+    out: list[np.ndarray] = []
+    for T in poses:
+        if any(np.abs(T[:3, 3] - S[:3, 3]).max() < 0.003 and np.abs(T[:3, :3] - S[:3, :3]).max() * radius < 0.003
+               for S in out):
+            continue
+        out.append(T)
+    return out
