@@ -48,12 +48,6 @@ LONG_MODULES_BEING_SPLIT: dict[str, str] = {
 }
 """Modules over the limit whose split is another change's work, allowed here only until it lands."""
 
-CIRCLES_BEING_FIXED: dict[str, str] = {
-    "code_as_monitor.agent.": "Monitor.from_config -> build_monitor -> Monitor (being untangled on the 'arch' branch)",
-    "code_as_monitor.sim.tasks": "task_names() in tasks.base imports the package that imports base (waits for the "
-                                 "'rlbench' helper's new tasks to land)",
-}
-"""Known circles counting deferred imports, by the package prefix all their modules share, allowed until fixed."""
 
 
 @dataclass
@@ -215,18 +209,8 @@ def test_no_import_circle_at_load_time():
     assert cycles(GRAPH.load) == []
 
 
-def _allowed_circle(circle: list[str]) -> bool:
-    return any(all(m.startswith(prefix) for m in circle) for prefix in CIRCLES_BEING_FIXED)
-
-
 def test_no_import_circle_counting_deferred_imports():
-    assert [c for c in cycles(GRAPH.all_edges()) if not _allowed_circle(c)] == []
-
-
-def test_circle_allow_list_is_still_needed():
-    found = cycles(GRAPH.all_edges())
-    stale = [p for p in CIRCLES_BEING_FIXED if not any(all(m.startswith(p) for m in c) for c in found)]
-    assert stale == [], f"remove from CIRCLES_BEING_FIXED: {stale}"
+    assert cycles(GRAPH.all_edges()) == []
 
 
 def test_no_module_over_400_lines():
@@ -386,7 +370,7 @@ def report(g: Graph) -> str:
     lines.append(f"load-time circles: {len(load_cycles)}")
     lines += [f"  {' <-> '.join(c)}" for c in load_cycles]
     lines.append(f"circles counting deferred imports: {len(all_cycles)}")
-    lines += [f"  {' <-> '.join(c)}" + (" (allow-listed)" if _allowed_circle(c) else "") for c in all_cycles]
+    lines += [f"  {' <-> '.join(c)}" for c in all_cycles]
     over = long_modules(g)
     lines.append(f"modules over {MAX_LINES} lines: {len(over)}")
     lines += [f"  {m} {n}" + (" (allow-listed)" if m in LONG_MODULES_BEING_SPLIT else "") for m, n in over.items()]
