@@ -26,9 +26,11 @@ class MonitorStages:
 
 
 def build_stages(config: MonitorConfig, on_frame: FrameFn | None = None, on_prompt: PromptFn | None = None,
-                 backend: Any = None) -> MonitorStages:
+                 backend: Any = None, skills: dict[str, str] | None = None) -> MonitorStages:
     """Build the stages of Code-as-Monitor from ``config``. ``backend``: an already built backend to use
-    instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory was made)."""
+    instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory was made).
+    ``skills``: the policy's skills, name -> description, as the planner is told them (None: every simulator
+    skill)."""
     from code_as_monitor.monitor.runtime import MonitorRuntime
     from code_as_monitor.painter import Painter
     from code_as_monitor.perception import (
@@ -44,7 +46,7 @@ def build_stages(config: MonitorConfig, on_frame: FrameFn | None = None, on_prom
 
     if backend is None:
         backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
-    generator = ConstraintGenerator(backend)
+    generator = ConstraintGenerator(backend, skills=skills)
     coder = MonitorCoder(backend, usage=generator.usage)
     painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
     tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))

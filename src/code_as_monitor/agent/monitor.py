@@ -105,14 +105,15 @@ class Monitor:
 
     @classmethod
     def from_config(cls, config: MonitorConfig, on_event: EventFn | None = None, on_frame: Any = None,
-                    on_prompt: Any = None, backend: Any = None) -> Monitor:
+                    on_prompt: Any = None, backend: Any = None, skills: dict[str, str] | None = None) -> Monitor:
         """Build Code-as-Monitor from a :class:`~code_as_monitor.agent.config.MonitorConfig` (VLM backend,
         segmenter, tracker, cameras, rates): the stages come from :func:`~code_as_monitor.agent.build.build_stages`
-        (``backend``: an already built backend to use instead of ``config.backend``). The monitor owns the
-        sandbox runtime's worker; call :meth:`close`."""
+        (``backend``: an already built backend to use instead of ``config.backend``; ``skills``: the policy's
+        skills, name -> description, for the planner). The monitor owns the sandbox runtime's worker; call
+        :meth:`close`."""
         from code_as_monitor.agent.build import build_stages
 
-        stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend)
+        stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend, skills=skills)
         return cls(stages.planner, stages.checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
                    time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
                    usage=stages.planner.usage, owned=[stages.runtime])
@@ -287,9 +288,10 @@ class Monitor:
 
 
 def build_monitor(config: MonitorConfig, on_event: EventFn | None = None, on_frame: Any = None,
-                  on_prompt: Any = None, backend: Any = None) -> Monitor:
+                  on_prompt: Any = None, backend: Any = None, skills: dict[str, str] | None = None) -> Monitor:
     """:meth:`Monitor.from_config` as a function (the benchmark's and the bag replay's callers)."""
-    return Monitor.from_config(config, on_event=on_event, on_frame=on_frame, on_prompt=on_prompt, backend=backend)
+    return Monitor.from_config(config, on_event=on_event, on_frame=on_frame, on_prompt=on_prompt, backend=backend,
+                               skills=skills)
 
 
 __all__ = ["Monitor", "MonitorContext", "SubgoalChecker", "SubgoalEnd", "build_monitor"]
