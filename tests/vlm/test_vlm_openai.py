@@ -280,6 +280,7 @@ def test_the_server_gets_the_lean_prompts_with_their_images_and_details(server, 
     import cv2
 
     from code_as_monitor.core import Element
+    from code_as_monitor.planning.coder import legend_specs
 
     front = np.zeros((240, 320, 3), np.uint8)
     front[0, 0] = (255, 0, 0)
@@ -299,12 +300,13 @@ def test_the_server_gets_the_lean_prompts_with_their_images_and_details(server, 
     sent = cv2.cvtColor(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
     assert sent.shape == (480, 320, 3) and tuple(sent[0, 0]) == (255, 0, 0) and (sent[240:] == 9).all()
 
-    els = [Element.point(0, "suction cup tip", [0.5, 0, 0.1], ("robot", "tip")),
-           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", ""))]
+    els = [Element(i, p.name, p.kind, np.zeros((1 if p.kind.value == "point" else 2, 3)), (p.obj, p.part))
+           for i, p in enumerate(legend_specs(sg))]
     coder = MonitorCoder(backend())
     server.script = [{"content": kb_answer(coder.build_messages(sg, els, {"front": front}), "monitor_coder")}]
     coder.write_program(sg, els, {"front": front}, basic_check([c.id for c in sg.constraints]))
     user = server.requests[1]["messages"][1]["content"]
     assert [p["image_url"]["detail"] for p in user if p["type"] == "image_url"] == ["low"]
-    assert '"elements":[[0,"point","robot/tip","suction cup tip"],[1,"point","green_block","green block"]]' \
-        in user[0]["text"]
+    legend = "[" + ",".join(f'[{e.id},"{e.kind.value}","{e.owner[0]}{"/" + e.owner[1] if e.owner[1] else ""}",'
+                            f'"{e.name}"]' for e in els) + "]"
+    assert f'"elements":{legend}' in user[0]["text"]
