@@ -45,6 +45,8 @@ class ClosedLoopConfig:
         video: write ``episode.mp4``.
         max_replans: failed subgoals allowed.
         deadline_s: the sandbox's per-frame deadline (see ``MonitorConfig.deadline_s``).
+        allow_unconfined: the explicit opt-out of the sandbox's kernel confinement (see
+            ``MonitorConfig.allow_unconfined``).
     """
 
     task: str = "stack-in-order"
@@ -62,6 +64,7 @@ class ClosedLoopConfig:
     video: bool = True
     max_replans: int = DEFAULT_MAX_REPLANS
     deadline_s: float = 0.020
+    allow_unconfined: bool = False
 
     def __post_init__(self) -> None:
         check_seed("ClosedLoopConfig", self.seed)
@@ -79,7 +82,7 @@ class ClosedLoopConfig:
             backend=self.backend, backend_options=dict(self.backend_options), segmenter=self.segmenter,
             segmenter_options=dict(self.segmenter_options), tracker=self.tracker,
             tracker_options=dict(self.tracker_options), frame_hz=self.camera_hz, max_replans=self.max_replans,
-            time_limit_s=time_limit_s, deadline_s=self.deadline_s,
+            time_limit_s=time_limit_s, deadline_s=self.deadline_s, allow_unconfined=self.allow_unconfined,
         )
 
 
