@@ -138,6 +138,8 @@ CASES: list = [
     ("monitor-rate-unknown", ["monitor", "DIR", "--rate", "warp"], "--rate"),
     ("monitor-hz-huge", ["monitor", "DIR", "--camera-hz", "5000"], "--camera-hz"),
     ("monitor-deadline-zero", ["monitor", "DIR", "--deadline", "0"], "--deadline"),
+    ("monitor-instruction-empty", ["monitor", "DIR", "--instruction", " "], "--instruction"),
+    ("monitor-objects-empty", ["monitor", "DIR", "--objects", ",,"], "--objects"),
     pytest.param("monitor-bag-garbage", ["monitor", "GARBAGE"], "cannot read bag",
                  marks=pytest.mark.skipif(importlib.util.find_spec("rosbags") is None, reason="needs the ros extra")),
     ("reproduce-results-missing", ["reproduce", "none.jsonl", "--key", "stack-p0/cam/0/0"], "no such file"),
