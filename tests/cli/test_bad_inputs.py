@@ -50,6 +50,8 @@ CASES: list = [
     ("run-tracker-unknown", ["run", "stack-in-order", "--tracker", "foo"], "foo"),
     ("run-unknown-flag", ["run", "stack-in-order", "--frobnicate"], "--frobnicate"),
     ("run-timeout-zero", ["run", "stack-in-order", "--timeout", "0"], "--timeout"),
+    ("run-model-empty", ["run", "stack-in-order", "--backend", "openai", "--model", ""], "--model"),
+    ("run-api-key-env-for-kb", ["run", "stack-in-order", "--api-key-env", "MY_KEY"], "--api-key-env"),
     ("run-hz-denormal", ["run", "stack-in-order", "--camera-hz", "1e-320"], "--camera-hz"),
     ("run-hz-above-sim-rate", ["run", "stack-in-order", "--camera-hz", "41"], "camera_hz"),
     ("run-deadline-huge", ["run", "stack-in-order", "--deadline", "1e23"], "--deadline"),

@@ -140,6 +140,9 @@ def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
     """The VLM backend's options from ``--base-url``, ``--model``, ``--api-key-env``, ``--cassette`` and the
     server options (``--timeout`` ...)."""
     backend_options: dict[str, Any] = {}
+    for flag, val in (("--base-url", args.base_url), ("--model", args.model), ("--api-key-env", args.api_key_env)):
+        if val is not None and not val.strip():
+            raise ConfigError(f"{flag} is empty")
     server = server_options(args)
     if args.backend == "openai":
         for key, val in (("base_url", args.base_url), ("model", args.model), ("api_key_env", args.api_key_env)):
@@ -153,8 +156,8 @@ def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
         if args.cassette is None:
             raise ConfigError("--backend replay needs --cassette PATH")
         backend_options["cassette"] = str(args.cassette)
-    elif args.backend != "openai" and (args.base_url or args.model):
-        raise ConfigError(f"--base-url/--model apply to the openai backend, not {args.backend!r}")
+    elif args.backend != "openai" and (args.base_url or args.model or args.api_key_env):
+        raise ConfigError(f"--base-url/--model/--api-key-env apply to the openai backend, not {args.backend!r}")
     return backend_options
 
 
