@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from code_as_monitor.agent.config import MonitorConfig, build_monitor
+from code_as_monitor.agent.config import MonitorConfig
+from code_as_monitor.agent.monitor import build_monitor
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig
 from code_as_monitor.core.errors import ConfigError, ObservationError, RecordingError, SandboxError
 from code_as_monitor.monitor.sandbox import Sandbox

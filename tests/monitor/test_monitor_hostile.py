@@ -16,11 +16,12 @@ import time
 import numpy as np
 import pytest
 from hostile_attacks import ALL, CANARY
+from hostile_kinds import KINDS
 from hostile_programs import CORPUS, GOOD
 from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, snapshot
 
 from code_as_monitor.core.errors import ProgramError
-from code_as_monitor.monitor.protocol import REASON_MAX
+from code_as_monitor.monitor.protocol import _CONTROL, REASON_MAX
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
 
@@ -32,7 +33,7 @@ def _cases() -> list:
     # the first corpus says "fault" for its deadline cases: they fault the whole frame
     out = [pytest.param(n, src, "frame" if needle == "deadline" else kind, needle, id=f"v1-{n}")
            for n, src, kind, needle in CORPUS]
-    for c in ALL:
+    for c in ALL + KINDS:
         marks = [pytest.mark.slow] if c[2] in ("frame", "either") and c[0] not in DEFAULT_FRAME_CASES else []
         out.append(pytest.param(*c, id=c[0], marks=marks))
     return out
@@ -55,10 +56,12 @@ def test_corpora_are_large_and_mixed():
     assert not {c[0] for c in ALL} & {c[0] for c in CORPUS}
     assert {c[2] for c in ALL} == {"rejected", "fault", "frame", "either", "load", "clean"}
     assert sum(c[2] != "rejected" for c in ALL) >= 60  # most of the new ones reach the worker
+    names = {c[0] for c in ALL + KINDS + CORPUS}
+    assert len(names) == len(ALL) + len(KINDS) + len(CORPUS)
 
 
 def _clean(reason: str) -> bool:
-    return (len(reason) <= REASON_MAX and not re.search(r"[\x00-\x1f\x7f-\x9f]", reason)
+    return (len(reason) <= REASON_MAX and not _CONTROL.search(reason)
             and not re.search(r"0x[0-9a-fA-F]{5,}", reason))
 
 

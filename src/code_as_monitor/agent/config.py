@@ -1,23 +1,19 @@
-"""Settings of the closed loop and the one place that builds a Code-as-Monitor :class:`Monitor`.
+"""Settings of the closed loop and of a Code-as-Monitor :class:`~code_as_monitor.agent.monitor.Monitor`.
 
 :class:`AgentConfig` holds the loop's own settings (rate, bounds, dwell, settle); :class:`MonitorConfig`
 adds the swappable stages, chosen by their registered names: the VLM backend (planner and coder), the
-segmenter, the tracker, and which cameras to use.
+segmenter, the tracker, and which cameras to use. :mod:`code_as_monitor.agent.build` builds the stages from them.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
-
-if TYPE_CHECKING:
-    from code_as_monitor.agent.monitor import Monitor
 
 
 @dataclass
@@ -123,39 +119,4 @@ class MonitorConfig(AgentConfig):
         return AgentConfig(**{k: getattr(self, k) for k in AgentConfig.__dataclass_fields__})
 
 
-def build_monitor(config: MonitorConfig, on_event: Callable[..., Any] | None = None, on_frame: Any = None,
-                  on_prompt: Any = None, backend: Any = None) -> Monitor:
-    """Build Code-as-Monitor from ``config``: backend -> planner and coder, segmenter -> painter,
-    tracker, a sandboxed runtime and element histories. ``backend``: an already built backend to use
-    instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory
-    was made). The monitor owns the runtime's worker; call :meth:`Monitor.close`."""
-    from code_as_monitor.agent.code_checker import CodeChecker
-    from code_as_monitor.agent.monitor import Monitor
-    from code_as_monitor.monitor.runtime import MonitorRuntime
-    from code_as_monitor.painter import Painter
-    from code_as_monitor.perception import (
-        ElementHistory,
-        SegmenterConfig,
-        TrackerConfig,
-        make_segmenter,
-        make_tracker,
-    )
-    from code_as_monitor.planning.coder import MonitorCoder
-    from code_as_monitor.planning.generator import ConstraintGenerator
-    from code_as_monitor.vlm import VLMBackendConfig, make_backend
-
-    if backend is None:
-        backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
-    generator = ConstraintGenerator(backend)
-    coder = MonitorCoder(backend, usage=generator.usage)
-    painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
-    tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
-    runtime = MonitorRuntime(deadline_s=config.deadline_s)
-    checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),
-                          on_frame=on_frame, on_prompt=on_prompt)
-    return Monitor(generator, checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
-                   time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
-                   usage=generator.usage, owned=[runtime])
-
-
-__all__ = ["AgentConfig", "MonitorConfig", "build_monitor"]
+__all__ = ["AgentConfig", "MonitorConfig"]

@@ -153,8 +153,8 @@ def run_closed_loop(
     An exception or an interrupt still writes ``summary.json`` (outcome ``error`` / ``interrupted``)
     and is then re-raised.
     """
-    from code_as_monitor.agent.config import build_monitor
     from code_as_monitor.agent.drive import drive
+    from code_as_monitor.agent.monitor import build_monitor
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
 
