@@ -81,6 +81,9 @@ class MonitorConfig(AgentConfig):
         cameras: view names the monitor uses; None: every view of each observation.
         deadline_s: the sandbox's per-frame deadline for running every check (seconds); a frame past
             it is a program fault for every check (no verdict). 20 ms suits 10 Hz on an idle machine.
+        allow_unconfined: run generated monitor code even where the worker's kernel confinement (seccomp,
+            no_new_privs, namespaces) cannot be installed: an explicit opt-out, off by default (then such a
+            machine refuses to run generated code and says why). ``CAM_ALLOW_UNCONFINED=1`` does the same.
     """
 
     backend: str = "kb"
@@ -91,10 +94,13 @@ class MonitorConfig(AgentConfig):
     tracker_options: dict[str, Any] = field(default_factory=dict)
     cameras: list[str] | None = None
     deadline_s: float = 0.020
+    allow_unconfined: bool = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
         check_range("MonitorConfig", "deadline_s", self.deadline_s, *DEADLINE_S_RANGE)
+        if not isinstance(self.allow_unconfined, bool):
+            raise ConfigError(f"MonitorConfig.allow_unconfined must be true or false, got {self.allow_unconfined!r}")
         for f in ("backend_options", "segmenter_options", "tracker_options"):
             if not isinstance(getattr(self, f), dict):
                 raise ConfigError(f"MonitorConfig.{f} must be a dict of options, got {getattr(self, f)!r}")
