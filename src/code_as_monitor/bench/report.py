@@ -24,6 +24,7 @@ from typing import Any
 from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import CONDITIONS, METHODS
+from code_as_monitor.bench.record_check import check_episode_record
 from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
 from code_as_monitor.core.errors import RunError
@@ -73,6 +74,7 @@ def _check_records(path: str | Path, recs: list[dict[str, Any]]) -> None:
         if missing:
             raise RunError(f"results {path}: episode record {i + 1} ({r['condition']} {r['method']} s{r['seed']}"
                            f"e{r['episode']}) lacks {', '.join(missing)}")
+        check_episode_record(path, i + 1, r)
 
 
 def summarise(path: str | Path) -> dict[str, Any]:
@@ -144,6 +146,14 @@ def wall_time(lines: list[dict[str, Any]]) -> float:
     return total
 
 
+def _token_ratio(cam: dict[str, Any] | None, doremi: dict[str, Any] | None) -> str:
+    """CaM's mean tokens per episode over DoReMi's, ``"0.62x"`` ("—" without both or with no DoReMi tokens)."""
+    if cam is None or doremi is None:
+        return "—"
+    a, b = float(cam["cost"]["tokens"]), float(doremi["cost"]["tokens"])
+    return f"{a / b:.2f}x" if math.isfinite(a) and math.isfinite(b) and b > 0 else "—"
+
+
 def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     """The Markdown tables (ours; the paper's beside it; cost; detection)."""
     ms, cs, cells = summary["methods"], summary["conditions"], summary["cells"]
@@ -176,14 +186,19 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
             row = [c.label] + [f"{p[m][0]:.2f} ± {p[m][1]:.2f}" if m in p else "—" for m in METHODS]
             row += [f"{p[m][2]:.2f} ± {p[m][3]:.2f}" if m in p and p[m][2] is not None else "—" for m in METHODS[1:]]
             out.append("| " + " | ".join(row) + " |")
-    out += ["", "VLM calls / tokens per episode, wall seconds per episode:", "",
-            "| Condition | " + " | ".join(HEADERS[m] for m in ms) + " |", "|---|" + "---|" * len(ms)]
+    ratio = "cam" in ms and "doremi" in ms  # the token ratio the paper reports (CaM against DoReMi)
+    out += ["", "VLM calls / tokens per episode, wall seconds per episode"
+            + (" (tokens: estimates offline; last column CaM / DoReMi tokens):" if ratio else ":"), "",
+            "| Condition | " + " | ".join(HEADERS[m] for m in ms) + (" | CaM / DoReMi tokens |" if ratio else " |"),
+            "|---|" + "---|" * (len(ms) + ratio)]
     for c in cs:
         row = [c.label]
         for m in ms:
             k = cells.get((c.id, m))
             row.append("—" if k is None else f"{_f(k['cost']['calls'])} / {_f(k['cost']['tokens'], 0)} / "
                        f"{_f(k['cost']['wall_s'])} s")
+        if ratio:
+            row.append(_token_ratio(cells.get((c.id, "cam")), cells.get((c.id, "doremi"))))
         out.append("| " + " | ".join(row) + " |")
     if checking:
         out += ["", "Detection (ours, against the simulator's ground truth): recall (detected/failures), median "

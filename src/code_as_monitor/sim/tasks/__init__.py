@@ -14,6 +14,12 @@ from code_as_monitor.sim.tasks import (  # noqa: F401
     sweep_to_dustpan,
     turn_tap,
 )
-from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult, task_names
+from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
+
+
+def task_names() -> list[str]:
+    """The registered task ids, sorted (this package registers every task when imported)."""
+    return TaskConfig.choices()
+
 
 __all__ = ["Task", "TaskConfig", "TaskResult", "task_names"]
