@@ -98,6 +98,8 @@ TABLE: list[tuple[str, str, Any]] = [
     ("stack", "don't stack the blue block", REFUSE),
     ("stack", "stack four blocks", REFUSE),
     ("stack", "put the red block next to the green block", REFUSE),
+    ("stack", "stack the blocks with blue first", REFUSE),
+    ("stack", "stack the red block on the green block first", REFUSE),
     # --- sweep-half: counts ------------------------------------------------------------------------------
     ("sweep", "sweep half of the blocks into the zone", sweep(16, 24, 18)),
     ("sweep", "push 10 blocks into the zone", sweep(9, 11, 10)),
@@ -116,6 +118,10 @@ TABLE: list[tuple[str, str, Any]] = [
     ("sweep", "push some blocks into the zone", REFUSE),
     ("sweep", "push half of the 30 blocks into the zone", REFUSE),
     ("sweep", "sweep half of the red blocks into the zone", REFUSE),
+    ("sweep", "push 2 dozen blocks into the zone", sweep(22, 26, 23)),
+    ("sweep", "push 10.5 blocks into the zone", REFUSE),
+    ("sweep", "push 10 12 blocks into the zone", REFUSE),
+    ("sweep", "push the block into the zone", REFUSE),
     # --- rope-close-square ------------------------------------------------------------------------------
     ("rope", "use the rope to close the opening of the square", FIXED["rope"]),
     ("rope", "close the gap in the square with the rope", FIXED["rope"]),

@@ -105,6 +105,8 @@ class _Parser:
         if np.quant == "all" and np.nums:  # "all 40 blocks", "all of the 40 blocks", "every one of the blocks"
             return Quantity("all", 1.0, bound, of_total=total if np.of_seen else np.nums[-1], text=words)
         before = np.nums[: np.nums_before_of] if np.of_seen else np.nums
+        if len(before) > 1 and bound != "between":
+            return Quantity("some", 0.0, "ambiguous", text=words)  # "10 12 blocks": no one count
         if before and (np.noun or np.colour or np.of_seen or np.det == "" or np.quant):
             high = before[1] if bound == "between" and len(before) > 1 else None
             return Quantity("number", before[0], bound, high=high, of_total=total, text=words)

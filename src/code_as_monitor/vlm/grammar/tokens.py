@@ -185,10 +185,14 @@ def tokenize(text: str) -> list[Token]:
 
 
 def _fix_numbers(tokens: list[Token]) -> list[Token]:
-    """Join "two thirds" (num frac) into one fraction and "25 %" (num percent) into a fraction."""
+    """Join "two thirds" (num frac) into one fraction, "25 %" (num percent) into a fraction and "2 dozen" into
+    one number."""
     out: list[Token] = []
     for t in tokens:
-        if out and out[-1].kind == "num" and t.kind == "frac" and t.text.endswith("s"):
+        if out and out[-1].kind == "num" and t.kind == "num" and t.text in ("dozen", "hundred"):
+            n = out.pop()  # "2 dozen", "two hundred"
+            out.append(Token("num", float(n.value) * float(t.value), f"{n.text} {t.text}"))  # type: ignore[arg-type]
+        elif out and out[-1].kind == "num" and t.kind == "frac" and t.text.endswith("s"):
             n = out.pop()
             out.append(Token("frac", float(n.value) * float(t.value), f"{n.text} {t.text}"))  # type: ignore[arg-type]
         elif out and out[-1].kind == "num" and t.kind == "unit" and t.value == "percent":
