@@ -147,6 +147,10 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
         return None
     r = Reading(ins, "open-drawer", heads=HEADS, verbs=VERBS)
     r.verbs(VERBS, DOING)
+    if "fully" in ins.modifiers:
+        r.refuse(f"cannot open the drawer all the way (its {DRAWER_TRAVEL * 100:.0f} cm travel): the kb opens it "
+                 f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm, so that a re-pull after a slip fits the rails "
+                 f"(say e.g. 'open the drawer 15 cm')")
     r.modifiers(MODIFIERS, DOING)
     if not {"open", "pull", "slide"} & set(ins.verbs) and "open" not in ins.modifiers:
         r.refuse("say what to do with the drawer: open it")
@@ -385,7 +389,7 @@ def drawerfreed(c: Spec) -> str:
 FAMILY = TaskFamily(
     name="drawer",
     task="open-drawer",
-    summary="open the drawer by pulling its handle",
+    summary="open the drawer by pulling its handle, 15 cm or as far as asked from 5 to 15 cm",
     example="open the drawer by pulling its handle",
     understand=understand,
     next_subgoal=next_subgoal,

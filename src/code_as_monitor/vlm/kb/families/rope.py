@@ -224,7 +224,7 @@ def next_rope(task: RopeGoal, previous: dict[str, Any] | None, feedback: str | N
 FAMILY = TaskFamily(
     name="rope",
     task="rope-close-square",
-    summary="close the opening of the square outline with the rope",
+    summary="close the opening of the square outline with the rope (all of it or a fraction asked for)",
     example="use the rope to close the opening of the square",
     understand=understand,
     next_subgoal=next_rope,
