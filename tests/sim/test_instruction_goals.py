@@ -109,3 +109,14 @@ def test_the_instruction_sets_how_much_of_the_opening_the_rope_covers():
                      instruction="cover the whole opening with the rope").config.min_coverage == pytest.approx(0.9)
     with pytest.raises(InstructionError, match="cannot promise"):
         make_task("rope-close-square", instruction="close at most half of the opening with the rope")
+
+
+def test_drawer_and_rope_goals_without_an_instruction_give_one_that_reads_back():
+    for min_open in (0.15, 0.1, 0.125, 0.06):
+        task = make_task("open-drawer", min_open=min_open)
+        assert make_task("open-drawer", instruction=task.instruction).config.min_open == pytest.approx(min_open)
+    assert make_task("open-drawer").instruction == "open the drawer by pulling its handle"
+    for cov in (0.9, 0.5, 0.8, 1.0):
+        task = make_task("rope-close-square", min_coverage=cov)
+        again = make_task("rope-close-square", instruction=task.instruction)
+        assert again.config.min_coverage == pytest.approx(cov)

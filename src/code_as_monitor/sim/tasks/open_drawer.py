@@ -83,9 +83,22 @@ class OpenDrawerConfig(TaskConfig):
                               f"got {self.disturbance!r}")
 
 
+INSTRUCTION = "open the drawer by pulling its handle"
+
+
+def describe_opening(min_open: float) -> str:
+    """The instruction for an opening goal (the instruction grammar reads it back to the same opening)."""
+    if abs(min_open - OPEN_MIN) < 1e-9:
+        return INSTRUCTION
+    return f"open the drawer {round(min_open * 100, 2):g} cm by pulling its handle"
+
+
 class OpenDrawer(Task):
     ee_kind = "gripper"
-    instruction = "open the drawer by pulling its handle"
+
+    @property
+    def instruction(self) -> str:  # type: ignore[override]
+        return self.config.instruction or describe_opening(self.config.min_open)
 
     def __init__(self, config: OpenDrawerConfig) -> None:
         super().__init__(config)
