@@ -98,6 +98,8 @@ TABLE: list[tuple[str, str, Any]] = [
     ("stack", "don't stack the blue block", REFUSE),
     ("stack", "stack four blocks", REFUSE),
     ("stack", "put the red block next to the green block", REFUSE),
+    ("stack", "stack red on top of green which is on top of blue", tower("blue", "green", "red")),
+    ("stack", "put red where blue is", REFUSE),
     ("stack", "stack the blocks with blue first", REFUSE),
     ("stack", "stack the red block on the green block first", REFUSE),
     # --- sweep-half: counts ------------------------------------------------------------------------------
