@@ -5,13 +5,11 @@ and recovery.
 Family ``drawer`` ("open the drawer by pulling its handle"): ``grasp`` the cabinet's handle -> ``pull`` the
 drawer out its opening plus ``PULL_MARGIN`` (then the gripper lets go) -> done.
 
-How far: ``DRAWER_OPEN`` (15 cm) unless the instruction says: a length ("open the drawer 10 cm", "pull it out
-by 4 inches", "at least 8 cm", "about 10 cm": the drawer must end at least that far out) or "halfway" (half of
-the 25 cm travel: 12.5 cm). Accepted: ``MIN_OPEN`` to ``MAX_OPEN``. Refused, naming the words: an upper
-limit ("up to", "at most", "exactly", "less than": the pull's end is checked from below only), a length out of
-that range, "fully" / "all the way" (the 25 cm travel: a re-pull after a slip would run into the stop, see
-below), two lengths. The opening asked for is the task's ``min_open`` (its success check follows it) and the
-``min_open`` of the pull's checks. Elements, all points: the gripper's grasp
+How far: ``DRAWER_OPEN`` (15 cm), or a length ("open the drawer 10 cm", "by 4 inches", "at least 8 cm": at
+least that far out), or "halfway" (12.5 cm, half the 25 cm travel), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's
+``min_open`` (its success check follows) and the pull checks' ``min_open``. Refused, naming the words: upper
+limits ("up to", "exactly": the pull is checked from below only), lengths out of range, two lengths, "fully"
+(a re-pull after a slip would run into the stop, see below). Elements, all points: the gripper's grasp
 point (``robot/tip``), the handle bar's centre (``drawer_cabinet/handle``), the drawer front
 (``drawer_cabinet/drawer``) and the cabinet's body (``drawer_cabinet/frame``); the drawer's axis is the
 horizontal direction from the body to the drawer front, its travel is the handle's motion along that axis
@@ -284,7 +282,6 @@ def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: st
         return g
     p["reasoning"] = f"the pull did not finish ({kind}); pull again, which ends by letting go"
     return p
-
 
 
 def next_subgoal(goal: DrawerGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
