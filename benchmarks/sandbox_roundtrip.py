@@ -12,9 +12,15 @@ the same run:
 - ``Sandbox.load`` of the program into a fresh worker: a spare that was started, warmed up and confined
   in the background (a fresh worker per load), plus the spare's own start-up time for reference.
 
+Every measurement is repeated ``--repeats`` times (confined and unconfined sandboxes interleaved, so
+that both see the same machine load); each figure is the median over the repeats of the per-repeat
+medians, each ratio the median of the per-repeat ratios, with the spread (min-max over the repeats)
+printed beside it. Timed calls get a generous deadline (1 s) so that a slow call counts as slow rather
+than as a fast "restarting" fault; calls over the real-time 20 ms budget are counted.
+
 Targets: round trip <= 0.15 ms, program load <= 50 ms. Run:
-``.venv/bin/python benchmarks/sandbox_roundtrip.py [--calls N] [--loads N]``; the last lines read
-``program_load_median: ... ms`` and ``sandbox_roundtrip_median: ... ms``.
+``.venv/bin/python benchmarks/sandbox_roundtrip.py [--calls N] [--loads N] [--repeats N]``; the last lines
+read ``name: value unit`` (``program_load_median: ... ms``, ``sandbox_roundtrip_median: ... ms`` ...).
 """
 
 from __future__ import annotations
@@ -114,37 +120,51 @@ def scene(rng: np.random.Generator, T: int = 30) -> tuple[dict, dict, np.ndarray
     return E, H, np.linspace(0.0, (T - 1) / 30.0, T)
 
 
-def median_ms(fn, n: int) -> tuple[float, float]:
+TIMED_DEADLINE_S = 1.0
+"""Deadline of the timed calls: generous, so that a call slowed by the machine is timed, not replaced."""
+REAL_TIME_S = 0.020
+"""The sandbox's real-time budget per frame; timed calls over it are counted."""
+
+
+def timed_ms(fn, n: int) -> np.ndarray:
+    """Milliseconds of ``n`` calls of ``fn``."""
     times = np.empty(n)
     for k in range(n):
         t0 = time.perf_counter()
         fn()
         times[k] = time.perf_counter() - t0
-    return float(np.median(times) * 1e3), float(np.percentile(times, 99) * 1e3)
+    return times * 1e3
 
 
-def roundtrips(sb: Sandbox, E: dict, H: dict, Ht: np.ndarray, n: int) -> tuple[float, float, float, float, int]:
-    """(transport median, transport p99, realistic median, realistic p99, faults) on one sandbox."""
+def roundtrips(sb: Sandbox, E: dict, H: dict, Ht: np.ndarray, n: int) -> dict[str, float]:
+    """Transport (constant checks) and realistic round trips on one sandbox: medians, p99s, faults, overruns."""
     t = float(Ht[-1])
+
+    def call() -> list:
+        return sb.evaluate(E, H, Ht, t, deadline_s=TIMED_DEADLINE_S)
+
     sb.load(EMPTY, CONSTRAINTS)
     for _ in range(500):
-        sb.evaluate(E, H, Ht, t)
-    empty_med, empty_p99 = median_ms(lambda: sb.evaluate(E, H, Ht, t), n)
+        call()
+    empty = timed_ms(call, n)
     sb.load(PROGRAM, CONSTRAINTS)
-    verdicts = sb.evaluate(E, H, Ht, t)
+    verdicts = call()
     ref = reference(E, H, t)
-    assert [v.ok for v in verdicts] == [bool(r[0]) for r in ref], (verdicts, ref)
-    assert not any(v.fault for v in verdicts), verdicts
+    if [v.ok for v in verdicts] != [bool(r[0]) for r in ref] or any(v.fault for v in verdicts):
+        raise SystemExit(f"the sandboxed program disagrees with the reference: {verdicts} vs {ref}")
     for _ in range(500):
-        sb.evaluate(E, H, Ht, t)
-    med, p99 = median_ms(lambda: sb.evaluate(E, H, Ht, t), n)
-    faults = sum(v.fault for _ in range(200) for v in sb.evaluate(E, H, Ht, t))
-    return empty_med, empty_p99, med, p99, faults
+        call()
+    real = timed_ms(call, n)
+    faults = sum(v.fault for _ in range(200) for v in call())
+    return {"empty_med": float(np.median(empty)), "empty_p99": float(np.percentile(empty, 99)),
+            "med": float(np.median(real)), "p99": float(np.percentile(real, 99)), "faults": faults,
+            "over": int((real > REAL_TIME_S * 1e3).sum() + (empty > REAL_TIME_S * 1e3).sum())}
 
 
-def loads(sb: Sandbox, n: int) -> tuple[list[float], list[float], list[float]]:
-    """Per load: ms of ``load`` with a started spare ready (it is fresh: never ran a program), ms from a
-    worker's spawn to its ready record (imports, warm-up, limits, confinement), ms of the confinement."""
+def loads(sb: Sandbox, n: int) -> dict[str, float]:
+    """Medians over ``n`` loads: ms of ``load`` with a started spare ready (it is fresh: never ran a program),
+    ms from a worker's spawn to its ready record (imports, warm-up, limits, confinement), ms of the
+    confinement itself."""
     load_ms, ready_ms, confine_ms = [], [], []
     for _ in range(n):
         sb.start()  # wait until a spare has said ready, as between subgoals
@@ -154,52 +174,82 @@ def loads(sb: Sandbox, n: int) -> tuple[list[float], list[float], list[float]]:
         w = sb._active
         ready_ms.append(w.ready_s * 1e3)
         confine_ms.append(w.confine_ms)
-    return load_ms, ready_ms, confine_ms
+    med = statistics.median
+    return {"load": med(load_ms), "ready": med(ready_ms), "confine": med(confine_ms)}
+
+
+def one_repeat(E: dict, H: dict, Ht: np.ndarray, n: int, n_loads: int) -> dict[str, float]:
+    """Confined, then unconfined (the reference for the confinement's cost), then the in-process reference."""
+    out: dict[str, float] = {}
+    with Sandbox() as sb:
+        out["confinement"] = sb.confinement  # type: ignore[assignment]
+        out.update(roundtrips(sb, E, H, Ht, n))
+        out.update(loads(sb, n_loads))
+    with Sandbox(confine=False, allow_unconfined=True) as ub:  # same worker, no confinement
+        out.update({f"un_{k}": v for k, v in roundtrips(ub, E, H, Ht, n).items()})
+        out.update({f"un_{k}": v for k, v in loads(ub, n_loads).items()})
+    t = float(Ht[-1])
+    for _ in range(500):
+        reference(E, H, t)
+    ref = timed_ms(lambda: reference(E, H, t), n)
+    out["ref_med"], out["ref_p99"] = float(np.median(ref)), float(np.percentile(ref, 99))
+    return out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=5000, help="timed calls per measurement (>= 1000)")
     parser.add_argument("--loads", type=int, default=20, help="timed program loads per sandbox (>= 5)")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats of the whole measurement (>= 3)")
     args = parser.parse_args()
-    n, n_loads = max(1000, args.calls), max(5, args.loads)
+    n, n_loads, n_rep = max(1000, args.calls), max(5, args.loads), max(3, args.repeats)
     E, H, Ht = scene(np.random.default_rng(0))
-    t = float(Ht[-1])
-    with Sandbox() as sb:
-        confinement = sb.confinement
-        empty_med, empty_p99, sb_med, sb_p99, faults = roundtrips(sb, E, H, Ht, n)
-        load_ms, ready_ms, confine_ms = loads(sb, n_loads)
-    with Sandbox(confine=False, allow_unconfined=True) as ub:  # the reference: same worker, no confinement
-        _, _, un_med, un_p99, _ = roundtrips(ub, E, H, Ht, n)
-        un_load_ms, un_ready_ms, _ = loads(ub, n_loads)
-    for _ in range(500):
-        reference(E, H, t)
-    ref_med, ref_p99 = median_ms(lambda: reference(E, H, t), n)
-    med = statistics.median
+    runs = [one_repeat(E, H, Ht, n, n_loads) for _ in range(n_rep)]
     try:
         load_avg = os.getloadavg()[0]
     except OSError:
         load_avg = math.nan
 
-    print(f"program: {len(CONSTRAINTS)} checks, {len(E)} elements, history T={len(Ht)}; {n} timed calls each, "
-          f"{n_loads} loads; machine load average {load_avg:.1f} on {os.cpu_count()} cores")
-    print(f"confined worker: {confinement}")
-    print(f"transport only (constant checks): median {empty_med:.3f} ms, p99 {empty_p99:.3f} ms")
-    print(f"sandbox evaluate (realistic):     median {sb_med:.3f} ms, p99 {sb_p99:.3f} ms, faults {faults}")
-    print(f"unconfined worker (reference):    median {un_med:.3f} ms, p99 {un_p99:.3f} ms")
-    print(f"in-process reference (trusted):   median {ref_med:.3f} ms, p99 {ref_p99:.3f} ms")
-    print(f"program load (fresh spare):       median {med(load_ms):.2f} ms (unconfined {med(un_load_ms):.2f} ms)")
-    print(f"worker start, spawn to ready:     median {med(ready_ms):.0f} ms (unconfined {med(un_ready_ms):.0f} ms),"
-          " in the background")
-    print(f"confinement install in a worker:  median {med(confine_ms):.2f} ms")
+    def fig(key: str) -> tuple[float, float, float]:
+        vals = [r[key] for r in runs]
+        return statistics.median(vals), min(vals), max(vals)
+
+    def ratio(num: str, den: str) -> tuple[float, float, float]:
+        vals = [r[num] / r[den] for r in runs]
+        return statistics.median(vals), min(vals), max(vals)
+
+    def show(label: str, key: str, unit: str = "ms", digits: int = 3) -> None:
+        m, lo, hi = fig(key)
+        print(f"{label:<40} median {m:.{digits}f} {unit} (repeats {lo:.{digits}f}-{hi:.{digits}f})")
+
+    print(f"program: {len(CONSTRAINTS)} checks, {len(E)} elements, history T={len(Ht)}; {n} timed calls and "
+          f"{n_loads} loads per sandbox, {n_rep} repeats; load average {load_avg:.1f} on {os.cpu_count()} cores")
+    print(f"confined worker: {runs[0]['confinement']}")
+    show("transport only (constant checks):", "empty_med")
+    show("sandbox evaluate (realistic):", "med")
+    show("  its p99:", "p99")
+    show("unconfined worker (reference):", "un_med")
+    show("in-process reference (trusted):", "ref_med")
+    show("program load (fresh spare):", "load", digits=2)
+    show("program load, unconfined:", "un_load", digits=2)
+    show("worker start, spawn to ready (background):", "ready", digits=0)
+    show("  unconfined:", "un_ready", digits=0)
+    show("confinement install in a worker:", "confine", digits=2)
+    print(f"faults in 200 checked frames per repeat: {[r['faults'] for r in runs]}; timed calls over "
+          f"{REAL_TIME_S * 1e3:.0f} ms (confined): {[r['over'] for r in runs]}")
+    rt_ratio, rt_lo, rt_hi = ratio("med", "un_med")
+    ld_ratio, ld_lo, ld_hi = ratio("load", "un_load")
+    print(f"confinement cost, round trip: x{rt_ratio:.2f} (repeats {rt_lo:.2f}-{rt_hi:.2f}); "
+          f"load: x{ld_ratio:.2f} (repeats {ld_lo:.2f}-{ld_hi:.2f})")
+    sb_med, ref_med = fig("med")[0], fig("ref_med")[0]
     print(f"sandbox_overhead_median: {sb_med - ref_med:.3f} ms")
-    print(f"sandbox_vs_inprocess_ratio: {sb_med / ref_med:.2f}")
-    print(f"sandbox_transport_median: {empty_med:.3f} ms")
-    print(f"confinement_roundtrip_ratio: {sb_med / un_med:.2f}")
-    print(f"confinement_load_ratio: {med(load_ms) / med(un_load_ms):.2f}")
-    print(f"confinement_install_median: {med(confine_ms):.2f} ms")
-    print(f"worker_start_median: {med(ready_ms):.0f} ms")
-    print(f"program_load_median: {med(load_ms):.2f} ms")
+    print(f"sandbox_vs_inprocess_ratio: {ratio('med', 'ref_med')[0]:.2f} x")
+    print(f"sandbox_transport_median: {fig('empty_med')[0]:.3f} ms")
+    print(f"confinement_roundtrip_ratio: {rt_ratio:.2f} x")
+    print(f"confinement_load_ratio: {ld_ratio:.2f} x")
+    print(f"confinement_install_median: {fig('confine')[0]:.2f} ms")
+    print(f"worker_start_median: {fig('ready')[0]:.0f} ms")
+    print(f"program_load_median: {fig('load')[0]:.2f} ms")
     print(f"sandbox_roundtrip_median: {sb_med:.3f} ms")
 
 

@@ -16,6 +16,7 @@ import time
 import numpy as np
 import pytest
 from hostile_attacks import ALL, CANARY
+from hostile_kinds import KINDS
 from hostile_programs import CORPUS, GOOD
 from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, snapshot
 
@@ -32,7 +33,7 @@ def _cases() -> list:
     # the first corpus says "fault" for its deadline cases: they fault the whole frame
     out = [pytest.param(n, src, "frame" if needle == "deadline" else kind, needle, id=f"v1-{n}")
            for n, src, kind, needle in CORPUS]
-    for c in ALL:
+    for c in ALL + KINDS:
         marks = [pytest.mark.slow] if c[2] in ("frame", "either") and c[0] not in DEFAULT_FRAME_CASES else []
         out.append(pytest.param(*c, id=c[0], marks=marks))
     return out
@@ -55,6 +56,8 @@ def test_corpora_are_large_and_mixed():
     assert not {c[0] for c in ALL} & {c[0] for c in CORPUS}
     assert {c[2] for c in ALL} == {"rejected", "fault", "frame", "either", "load", "clean"}
     assert sum(c[2] != "rejected" for c in ALL) >= 60  # most of the new ones reach the worker
+    names = {c[0] for c in ALL + KINDS + CORPUS}
+    assert len(names) == len(ALL) + len(KINDS) + len(CORPUS)
 
 
 def _clean(reason: str) -> bool:

@@ -91,7 +91,7 @@ def test_non_finite_margin_or_non_bool_ok_is_a_fault(scene):
            "def check_b(E, H, t):\n    return 1, 'one'\n")
     from code_as_monitor.monitor.sandbox import Sandbox
 
-    with Sandbox() as sb:
+    with Sandbox(deadline_s=5.0) as sb:  # generous: the first frame on a loaded machine
         sb.load(src, cs)
         a, b = sb.evaluate(scene, None, None, 0.0)
     assert a.fault and not a.ok and "not finite" in a.reason

@@ -59,11 +59,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from code_as_monitor.baselines.vqa_pixels import VQAAnswer, color_mask
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import View
 
 if TYPE_CHECKING:
-    from code_as_monitor.baselines.vqa_standin import VQAAnswer
     from code_as_monitor.baselines.vqa_standin_gripper import Gripper
 
 DRAWER_KEYS = ("drawerstill", "handlegrip", "jawshut", "handled", "pulled", "drawerfreed")
@@ -107,8 +107,6 @@ def is_drawer_constraint(key: str, c: Constraint) -> bool:
 def _mask(rgb: np.ndarray, color: str, min_area: int = 3) -> np.ndarray:
     """(H, W) bool: pixels of ``color`` without speckle (connected pieces under ``min_area`` pixels)."""
     import cv2
-
-    from code_as_monitor.baselines.vqa_standin import color_mask
 
     m = color_mask(rgb, color)
     _, labels, stats, _ = cv2.connectedComponentsWithStats(m.astype(np.uint8), connectivity=8)
@@ -182,7 +180,7 @@ class DrawerRules:
 
     def answer(self, key: str, c: Constraint, view: View, g: Gripper) -> VQAAnswer | None:
         """Yes/no for constraint ``c`` (kind ``key``), or None when it is not a drawer constraint."""
-        from code_as_monitor.baselines.vqa_standin import VQAAnswer as A
+        A = VQAAnswer
 
         if not is_drawer_constraint(key, c):
             return None

@@ -54,15 +54,12 @@ fingers hide parts of the item; a single frame cannot see an item turned or slid
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from code_as_monitor.baselines.vqa_pixels import VQAAnswer, color_mask
 from code_as_monitor.core.constraints import Constraint, Phase
 from code_as_monitor.core.observation import View
-
-if TYPE_CHECKING:
-    from code_as_monitor.baselines.vqa_standin import VQAAnswer
 
 ITEM_COLORS: dict[str, tuple[str, ...]] = {"pen": ("blue", "yellow"), "book": ("red", "cream")}
 """Colours (keys of ``HSV_RANGES``) of a graspable item's pixels."""
@@ -140,8 +137,6 @@ def item_kind(obj: str) -> str | None:
 def _mask(rgb: np.ndarray, colors: tuple[str, ...]) -> np.ndarray:
     """(H, W) bool: pixels of any of ``colors``, without speckle (connected pieces under 3 pixels)."""
     import cv2
-
-    from code_as_monitor.baselines.vqa_standin import color_mask
 
     m = np.zeros(rgb.shape[:2], dtype=bool)
     for c in colors:
@@ -231,7 +226,7 @@ class GripperRules:
 
     def answer(self, key: str, c: Constraint, view: View, g: Gripper) -> VQAAnswer | None:
         """Yes/no for constraint ``c`` (kind ``key``), or None when it is not a pen/book constraint."""
-        from code_as_monitor.baselines.vqa_standin import VQAAnswer as A
+        A = VQAAnswer
 
         objs = [p.obj for p in c.parts if p.obj != "robot"]
         items = [o for o in objs if item_kind(o) in ITEM_COLORS]

@@ -38,16 +38,14 @@ the picture than the handle's, which a pot seen from the spout's end can get wro
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from code_as_monitor.baselines.vqa_pixels import VQAAnswer
+from code_as_monitor.baselines.vqa_standin_drawer import _mask, on_plane
+from code_as_monitor.baselines.vqa_standin_gripper import Gripper, image_down
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import View
-
-if TYPE_CHECKING:
-    from code_as_monitor.baselines.vqa_standin import VQAAnswer
-    from code_as_monitor.baselines.vqa_standin_gripper import Gripper
 
 TEA_KEYS = ("grasped", "lifted", "gripped", "freed", "potlevel", "pourtilt", "draintilt", "spoutover")
 """Constraint kinds (id prefixes) of the tea family (``vlm/kb/families/tea.py``)."""
@@ -77,8 +75,6 @@ def is_tea_constraint(key: str, c: Constraint) -> bool:
 
 
 def _blob(rgb: np.ndarray, part: str) -> Blob2 | None:
-    from code_as_monitor.baselines.vqa_standin_drawer import _mask
-
     vs, us = np.nonzero(_mask(rgb, PART_COLORS[part]))
     if len(us) < MIN_PIXELS:
         return None
@@ -125,9 +121,6 @@ class Lid:
 
 def lid_of(view: View) -> Lid | None:
     """The lid's :class:`Lid` from its red pixels, or None when fewer than :data:`MIN_PIXELS` show."""
-    from code_as_monitor.baselines.vqa_standin_drawer import _mask, on_plane
-    from code_as_monitor.baselines.vqa_standin_gripper import image_down
-
     vs, us = np.nonzero(_mask(view.rgb, PART_COLORS["lid"]))
     if len(us) < MIN_PIXELS:
         return None
@@ -155,7 +148,7 @@ class TeaRules:
 
     def answer(self, key: str, c: Constraint, view: View, g: Gripper) -> VQAAnswer | None:
         """Yes/no for constraint ``c`` (kind ``key``), or None when it is not a tea constraint."""
-        from code_as_monitor.baselines.vqa_standin import VQAAnswer as A
+        A = VQAAnswer
 
         if not is_tea_constraint(key, c):
             return None

@@ -222,7 +222,7 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
                            "undisturbed": cond.undisturbed,
                            "tracker": opts.tracker if job.method == "cam" else None}
     if job.method == "cam":
-        from code_as_monitor.bench.reproduce import run_command
+        from code_as_monitor.bench.commands import run_command
 
         rec["run"] = run_command(cond.task, seed, dict(cond.params), opts.to_dict())
     if video_dir is not None:

@@ -2,7 +2,8 @@
 
 Every episode record of a results file carries ``reproduce``, ``cam reproduce RESULTS --key KEY`` (KEY is
 ``condition/method/seed/episode``): it reads the method options from the file's ``bench_start`` line and runs
-the same job through the same episode code as ``cam bench``. CaM records also carry ``run``, the ``cam run``
+the same job through the same episode code as ``cam bench``
+(the commands are written by :mod:`code_as_monitor.bench.commands`). CaM records also carry ``run``, the ``cam run``
 command with the same task, episode seed, task parameters, perception, camera size and rate, backend and
 re-plan bound: the same episode, with the live log and a run directory (the benchmark's counterfactual
 rollouts restore the world exactly, so running without them changes nothing).
@@ -13,59 +14,23 @@ constraints at the same frames (within one frame period), and the ground-truth f
 
 from __future__ import annotations
 
-import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from code_as_monitor.core.errors import ConfigError, RunError
+from code_as_monitor.bench.commands import parse_key, record_key_text, reproduce_command, run_command
+from code_as_monitor.bench.episode import EpisodeOptions, run_episode
+from code_as_monitor.bench.protocol import Job
+from code_as_monitor.bench.runner import episode_records, read_results, record_key
+from code_as_monitor.core.errors import RunError
 
 FAILURE_EVENT_KINDS = ("drop", "regrasped", "block_fell", "tower_collapsed", "object_moved", "grasp_perturbed",
                        "object_knocked", "grasp_slipped", "pour_undone", "placement_noise")
 """Ground-truth kinds compared between a record and its re-run."""
 
 
-def record_key_text(r: dict[str, Any]) -> str:
-    """``condition/method/seed/episode`` of a record."""
-    return f"{r['condition']}/{r['method']}/{int(r['seed'])}/{int(r['episode'])}"
-
-
-def parse_key(key: str) -> tuple[str, str, int, int]:
-    """(condition, method, seed, episode) from ``condition/method/seed/episode``; ConfigError naming a bad one."""
-    parts = str(key).split("/")
-    if len(parts) != 4 or not parts[2].isdigit() or not parts[3].isdigit():
-        raise ConfigError(f"--key must look like CONDITION/METHOD/SEED/EPISODE (e.g. stack-p0.3/cam/0/3), got {key!r}")
-    return parts[0], parts[1], int(parts[2]), int(parts[3])
-
-
-def reproduce_command(results: str | Path, r: dict[str, Any]) -> str:
-    """``cam reproduce RESULTS --key KEY`` for record ``r`` of ``results``."""
-    return f"cam reproduce {shlex.quote(str(results))} --key {shlex.quote(record_key_text(r))}"
-
-
-def run_command(task: str, episode_seed: int, params: dict[str, Any], options: dict[str, Any]) -> str:
-    """The ``cam run`` command that runs the same CaM episode as the benchmark (see the module docstring)."""
-    from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
-    from code_as_monitor.bench.closed_loop import ClosedLoopConfig
-
-    cfg = ClosedLoopConfig()
-    words = ["cam", "run", task, "--seed", str(int(episode_seed))]
-    for k, v in sorted(params.items()):
-        words += ["--set", f"{k}={v}"]
-    words += ["--backend", str(options.get("backend", "kb")), "--segmenter", str(options.get("segmenter", "sim")),
-              "--tracker", str(options.get("tracker", "sim")), "--size", f"{cfg.width}x{cfg.height}",
-              "--camera-hz", f"{float(options.get('camera_hz', cfg.camera_hz)):g}",
-              "--max-replans", str(DEFAULT_MAX_REPLANS),
-              "--deadline", f"{float(options.get('deadline_s', cfg.deadline_s)):g}"]
-    if options.get("backend_options"):
-        words.append("# backend options: " + ", ".join(f"{k}={v}" for k, v in options["backend_options"].items()))
-    return " ".join(shlex.quote(w) if not w.startswith("#") else w for w in words)
-
-
 def find_record(results: str | Path, key: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """(method options from the file's ``bench_start``, the last record of ``key``); RunError when absent."""
-    from code_as_monitor.bench.runner import episode_records, read_results, record_key
-
     want = parse_key(key)
     lines = read_results(results)
     starts = [x for x in lines if x.get("kind") == "bench_start"]
@@ -115,9 +80,6 @@ def compare(record: dict[str, Any], rerun: dict[str, Any], frame_s: float) -> li
 
 def reproduce(results: str | Path, key: str, video_dir: Path | None = None) -> Reproduction:
     """Re-run record ``key`` of ``results`` with the file's method options; compare (see :func:`compare`)."""
-    from code_as_monitor.bench.episode import EpisodeOptions, run_episode
-    from code_as_monitor.bench.protocol import Job
-
     options, rec = find_record(results, key)
     condition, method, seed, episode = parse_key(key)
     opts = EpisodeOptions(**options)

@@ -9,7 +9,7 @@ Results file lines (``kind`` first):
 - ``{"kind": "bench_end", "wall_s": ..., "episodes": n}`` when a session completes.
 
 Every episode record carries ``reproduce``, the ``cam reproduce`` command that re-runs it (CaM records
-also ``run``, the equivalent ``cam run``; see ``bench.reproduce``), and ``code``, the version of the code
+also ``run``, the equivalent ``cam run``; see ``bench.commands``), and ``code``, the version of the code
 that made it (package version + content hash of the package, see ``bench.results_file``); ``bench_start``
 also records ``git`` (``git describe``) and the writer's ``pid``.
 
@@ -30,10 +30,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.bench.commands import reproduce_command
 from code_as_monitor.bench.episode import EpisodeOptions, run_episode
 from code_as_monitor.bench.executors import ExecutorConfig, LocalExecutorConfig, executor_session, run_tasks
 from code_as_monitor.bench.protocol import BenchSpec, Job
-from code_as_monitor.bench.reproduce import reproduce_command
 from code_as_monitor.bench.results_file import ResultsLock, code_version, git_describe, record_versions
 from code_as_monitor.core.errors import ConfigError, RunError
 from code_as_monitor.core.run_io import EventLog, new_run_dir, read_jsonl

@@ -35,6 +35,7 @@ from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
+from code_as_monitor.geometry.carve import CarveView, carve
 from code_as_monitor.geometry.fusion import voxel_downsample
 from code_as_monitor.geometry.part_cloud import (
     MIN_FINE_VOXEL,
@@ -46,7 +47,8 @@ from code_as_monitor.geometry.part_cloud import (
     mask_cloud,
     part_cloud,
 )
-from code_as_monitor.geometry.solid import Box, CarveView, SupportPlane, carve, fit_box
+from code_as_monitor.geometry.solid import Box, fit_box
+from code_as_monitor.geometry.support import SupportPlane
 
 __all__ = [
     "MIN_FINE_VOXEL", "VOXEL_DIVISIONS", "Observation3D", "build_element", "build_element_from_clouds", "cap_cloud",
@@ -183,7 +185,7 @@ def build_element(
         observations: ``(mask (H, W) bool, depth (H, W) metres, camera)`` per view; a view where the
             part is not visible (empty mask or no valid depth) adds no points but still carves free space.
         max_depth: metres; depth beyond is missing.
-        support: optional support plane (:func:`~.solid.support_plane`): the part's hidden sides never grow
+        support: optional support plane (:func:`~.support.support_plane`): the part's hidden sides never grow
             below it; its normal is tried as a box axis and its noise estimate sets the tolerances.
     Returns:
         The element, points in the world frame, owner ``(spec.obj, spec.part)``, with its cloud and support.

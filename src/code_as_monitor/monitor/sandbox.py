@@ -1,12 +1,12 @@
 """Run monitor programs in fresh, kernel-confined worker processes with a per-frame deadline.
 
 The control process never executes generated code. :class:`Sandbox` keeps *spare* workers started
-(:mod:`.pool`, :mod:`.process`, :mod:`.worker`): fresh interpreters that have imported what they need
+(:mod:`.lifecycle`, :mod:`.pool`, :mod:`.process`, :mod:`.worker`): fresh interpreters that have imported what they need
 and confined themselves (:mod:`.confine`: seccomp filter, ``no_new_privs``, new user and network
 namespaces where the kernel allows them). Every :meth:`Sandbox.load` hands the program to a spare, so no
 state carries from one program to the next, and starts the next spare once the program is loaded; after
 a kill, a spawner thread starts it. Then :meth:`Sandbox.evaluate` makes exactly one round trip per frame
-for all checks.
+for all checks, the frame shipped as one buffer (:mod:`.frames`).
 
 The control process trusts nothing a worker sends: replies are bounded in size and parsed against a
 fixed layout (:mod:`.protocol`), reasons are truncated and stripped of addresses, non-finite margins
@@ -21,68 +21,26 @@ caller opts out explicitly: ``Sandbox(allow_unconfined=True)`` or ``CAM_ALLOW_UN
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 import pickle
 import time
-import weakref
 
 import numpy as np
 
 from code_as_monitor.core.constraints import Constraint, Verdict
-from code_as_monitor.core.errors import ProgramError, SandboxError, ShapeMismatchError
+from code_as_monitor.core.errors import ProgramError, SandboxError
 from code_as_monitor.monitor import protocol
-from code_as_monitor.monitor.pool import SparePool
+from code_as_monitor.monitor.frames import pack
+from code_as_monitor.monitor.lifecycle import ALLOW_UNCONFINED_ENV, MAX_START_FAILURES, WorkerLifecycle
 from code_as_monitor.monitor.process import LateError, WorkerProcess
 from code_as_monitor.monitor.protocol import ReplyError
 from code_as_monitor.monitor.validate import validate_program
 
-log = logging.getLogger(__name__)
-
-MAX_START_FAILURES = 3
-ALLOW_UNCONFINED_ENV = "CAM_ALLOW_UNCONFINED"
-_CONFINED = protocol.SECCOMP | protocol.NO_NEW_PRIVS
+__all__ = ["ALLOW_UNCONFINED_ENV", "MAX_START_FAILURES", "Sandbox", "pack"]
 
 
-def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
-         history_t: np.ndarray | None, t: float) -> tuple[tuple, tuple, bytes]:
-    """Flatten a frame into one float64 buffer plus its layout (cheaper than pickling many arrays).
-
-    Returns:
-        ``((id, k), ...)`` of the elements, ``((id, T, k), ...)`` of the history, and the bytes of
-        ``[E..., H..., H.t]``. ``history=None`` means the current frame alone (T = 1, ``H.t = [t]``).
-    Raises:
-        ShapeMismatchError: points are not (k, 3), histories not (T, k, 3), or ``history_t`` not (T,).
-    """
-    E = [(int(i), np.asarray(p, dtype=np.float64)) for i, p in elements.items()]
-    for i, p in E:
-        if (p.ndim != 2 or p.shape[1] != 3) and p.shape != (3,):
-            raise ShapeMismatchError(f"element {i}: points must be (k, 3), got {p.shape}")
-    E = [(i, p.reshape(-1, 3)) for i, p in E]
-    if history is None:
-        Hs = [(i, p[None]) for i, p in E]
-        Ht = np.array([t], dtype=np.float64)
-    else:
-        Hs = [(int(i), np.asarray(h, dtype=np.float64)) for i, h in history.items()]
-        Ht = np.asarray(history_t if history_t is not None else [t], dtype=np.float64).reshape(-1)
-        for i, h in Hs:
-            if h.ndim != 3 or h.shape[2] != 3 or h.shape[0] != Ht.shape[0]:
-                raise ShapeMismatchError(f"history of element {i} must be (T={Ht.shape[0]}, k, 3), got {h.shape}")
-    parts = [p.ravel() for _, p in E] + [h.ravel() for _, h in Hs] + [Ht]
-    data = np.concatenate(parts).tobytes() if parts else b""
-    return tuple((i, p.shape[0]) for i, p in E), tuple((i, h.shape[0], h.shape[1]) for i, h in Hs), data
-
-
-def _shutdown(pools: list[SparePool]) -> None:
-    """Last-resort cleanup of a sandbox that was never closed: stop its spawner, kill its workers."""
-    for pool in pools:
-        pool.close()
-        for w in list(pool.registry):
-            w.kill()
-
-
-class Sandbox:
+class Sandbox(WorkerLifecycle):
     """Fresh confined workers, one per loaded program, with a spare always starting in the background.
 
     Args:
@@ -110,104 +68,15 @@ class Sandbox:
         if not confine and not allow_unconfined:
             raise SandboxError("confine=False runs generated code without kernel confinement; pass "
                                "allow_unconfined=True as well to opt out explicitly")
+        super().__init__(memory_mb, cpu_s, start_timeout_s, spares, confine, allow_unconfined)
         self.deadline_s = float(deadline_s)
-        self.memory_mb = int(memory_mb)
-        self.cpu_s = int(cpu_s)
-        self.start_timeout_s = float(start_timeout_s)
         self.load_timeout_s = float(load_timeout_s)
-        self.n_spares = int(spares)
-        self.confine = bool(confine)
-        self.allow_unconfined = bool(allow_unconfined)
-        self._active: WorkerProcess | None = None
-        self._pool: SparePool | None = None  # started on first use
-        self._dying: list[WorkerProcess] = []
-        self._program: tuple[str, list[Constraint], bool] | None = None
         self._constraints: list[Constraint] = []
-        self._max_reply = 8192
         self._reasons: list[tuple[bytes, str]] = []
         self._seq = 0
-        self._start_failures = 0
-        self.n_restarts = 0
         self.n_branches = 0
         self.last_marks: list[int] = []
         self.last_load_s = math.nan
-        self._pools: list[SparePool] = []
-        self._finalizer = weakref.finalize(self, _shutdown, self._pools)
-
-    # --- workers ----------------------------------------------------------------------------------
-    def _spare_pool(self) -> SparePool:
-        if self._pool is None:
-            memory_mb, cpu_s, confine = self.memory_mb, self.cpu_s, self.confine
-            self._pool = SparePool(self.n_spares, lambda: WorkerProcess(memory_mb, cpu_s, confine))
-            self._pools.append(self._pool)
-        return self._pool
-
-    def _take_spare(self, timeout: float, refill: bool = True) -> WorkerProcess | None:
-        """A started spare (waiting up to ``timeout`` for one; None if there is none by then)."""
-        self._collect()
-        return self._spare_pool().take(timeout, refill)
-
-    def _retire(self, w: WorkerProcess | None) -> None:
-        if w is not None:
-            w.kill()
-            self._dying.append(w)
-
-    def _collect(self) -> None:
-        """Reap retired workers that have exited (never waits)."""
-        for w in [w for w in self._dying if w.reap(0.0)]:
-            self._dying.remove(w)
-            if self._pool is not None:
-                self._pool.forget(w)
-
-    def _absorb(self, w: WorkerProcess, deadline: float) -> None:
-        """Read the replies ``w`` still owes until the deadline (raises :class:`LateError` at it)."""
-        while w.awaiting:
-            data = w.recv(deadline)
-            if w.awaiting[0] == "ready":
-                self._on_ready(w, data)
-            else:
-                ok, value = protocol.decode_load(data)
-                if not ok:
-                    raise ProgramError(f"monitor program failed to load in the sandbox: {value}")
-                w.n_branches = int(value)
-            w.awaiting.pop(0)
-
-    def _on_ready(self, w: WorkerProcess, data: bytes) -> None:
-        pid, flags, boot_ms, confine_ms, notes = protocol.decode_ready(data)
-        if pid != w.pid:
-            raise ReplyError(f"ready record names pid {pid}, the worker is {w.pid}")
-        w.confinement, w.boot_ms, w.confine_ms = (flags, notes), boot_ms, confine_ms
-        w.ready_s = time.perf_counter() - w.started
-        if self.confine and flags & _CONFINED != _CONFINED and not self.allow_unconfined:
-            raise SandboxError(
-                f"the sandbox worker could not be confined by the kernel ({notes}); generated code does not "
-                f"run unconfined unless you opt out explicitly: Sandbox(allow_unconfined=True), "
-                f"MonitorRuntime(allow_unconfined=True) or {ALLOW_UNCONFINED_ENV}=1")
-        if self.confine and flags & _CONFINED != _CONFINED:
-            log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
-
-    def _ready_worker(self, deadline: float, refill: bool = True) -> WorkerProcess:
-        """A spare that has said ready (started if need be), replacing ones that die on the way up."""
-        while True:
-            w = self._take_spare(max(0.0, deadline - time.perf_counter()), refill)
-            if w is None:
-                raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
-            try:
-                self._absorb(w, deadline)
-                self._start_failures = 0
-                return w
-            except SandboxError:
-                self._retire(w)
-                raise
-            except LateError:
-                self._retire(w)
-                raise SandboxError(f"sandbox worker not ready after {self.start_timeout_s:.1f} s") from None
-            except (EOFError, OSError, ReplyError) as exc:
-                why = f"{type(exc).__name__}: {exc}; {w.how_it_ended()}"
-                self._retire(w)
-                self._start_failures += 1
-                if self._start_failures >= MAX_START_FAILURES:
-                    raise SandboxError(f"sandbox worker failed to start {self._start_failures} times: {why}") from None
 
     def start(self) -> Sandbox:
         """Make sure a spare is ready (and a replacement worker has reloaded the program).
@@ -216,94 +85,14 @@ class Sandbox:
             SandboxError: no worker came up within ``start_timeout_s``, or it could not be confined (and
                 the caller did not opt out).
         """
-        deadline = time.perf_counter() + self.start_timeout_s
-        w = self._ready_worker(deadline)
-        self._spare_pool().put_back(w)
-        for _ in range(2 * MAX_START_FAILURES):
-            if self._program is None or (self._active is not None and self._active.ready):
-                break
-            if self._active is None:
-                self._activate_spare()
-                if self._active is None:
-                    w = self._take_spare(max(0.0, deadline - time.perf_counter()))
-                    if w is None:
-                        raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
-                    self._spare_pool().put_back(w)
-                continue
-            try:
-                self._absorb(self._active, deadline)
-            except LateError:
-                raise SandboxError(f"replacement worker not ready after {self.start_timeout_s:.1f} s") from None
-            except (EOFError, OSError, ReplyError, ProgramError) as exc:
-                self._replace(f"replacement worker did not reload the program ({type(exc).__name__})")
+        super().start()
         return self
-
-    def close(self) -> None:
-        """Stop every worker (SIGKILL) and collect them."""
-        workers = [w for w in (self._active, *self._dying) if w is not None]
-        pool, self._pool = self._pool, None
-        if pool is not None:
-            pool.close()
-            workers += [w for w in pool.registry if w not in workers]
-        self._active, self._dying = None, []
-        for w in workers:
-            w.kill()
-        for w in workers:
-            w.reap(timeout=5.0)
-        self._pools.clear()
 
     def __enter__(self) -> Sandbox:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-    @property
-    def worker_pid(self) -> int | None:
-        """Process id of the worker running the current program (None when there is none)."""
-        return self._active.pid if self._active is not None and not self._active.dead else None
-
-    @property
-    def all_pids(self) -> set[int]:
-        """Process ids of every worker this sandbox holds: the active one, the spares, and killed ones not
-        yet collected."""
-        workers = [self._active, *self._dying, *(self._pool.registry if self._pool is not None else ())]
-        return {w.pid for w in workers if w is not None}
-
-    @property
-    def confinement(self) -> str:
-        """What confines the current (or next) worker, in words; "unknown" before one said ready."""
-        for w in (self._active, *(self._pool.registry if self._pool is not None else ())):
-            if w is not None and w.confinement is not None:
-                return w.confinement[1]
-        return "unknown"
-
-    def _replace(self, why: str) -> None:
-        """Kill the active worker; a spare takes over the same program (loaded in the background)."""
-        log.warning("sandbox worker replaced: %s", why)
-        self._retire(self._active)
-        self._active = None
-        self.n_restarts += 1
-        if self._program is not None:
-            self._activate_spare()
-
-    def _activate_spare(self) -> None:
-        """Hand the current program to a spare without waiting (nothing happens if there is none yet)."""
-        try:
-            w = self._take_spare(0.0)
-        except SandboxError as exc:  # cannot even start a process: try again on the next call
-            log.error("no sandbox worker could be started: %s", exc)
-            return
-        if w is None:
-            return
-        self._active = w
-        try:
-            w.send(pickle.dumps(("load", *self._program), protocol=5), time.perf_counter() + 0.05)
-            w.awaiting.append("loaded")
-            w.allow_reply(self._max_reply)
-        except (LateError, OSError):
-            self._retire(w)
-            self._active = None
 
     # --- programs ---------------------------------------------------------------------------------
     def load(self, source: str, constraints: list[Constraint], *, coverage: bool = False) -> None:

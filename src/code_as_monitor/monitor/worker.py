@@ -43,6 +43,7 @@ from code_as_monitor.geometry.helpers import MONITOR_HELPERS
 from code_as_monitor.monitor import protocol
 from code_as_monitor.monitor.allowlist import SAFE_BUILTINS
 from code_as_monitor.monitor.confine import confine, load_seccomp
+from code_as_monitor.monitor.frames import unpack
 from code_as_monitor.monitor.instrument import MARKER, instrument
 from code_as_monitor.monitor.npsurface import build_math, build_numpy
 from code_as_monitor.monitor.validate import validate_program
@@ -169,22 +170,6 @@ class _Program:
         self.checks = [ns[c.function_name] for c in constraints]
         self.n_branches = n_branches
         self.coverage = coverage
-
-
-def unpack(layout_e: tuple, layout_h: tuple, data: bytes) -> tuple[dict, dict, np.ndarray]:
-    """Rebuild E, H and H.t as read-only views of one float64 buffer (see ``sandbox.pack``)."""
-    flat = np.frombuffer(data, dtype=np.float64)  # bytes are immutable: every view is read-only
-    E: dict[int, np.ndarray] = {}
-    o = 0
-    for i, k in layout_e:
-        E[i] = flat[o:o + 3 * k].reshape(k, 3)
-        o += 3 * k
-    Hd: dict[int, np.ndarray] = {}
-    T = 0
-    for i, T, k in layout_h:
-        Hd[i] = flat[o:o + 3 * T * k].reshape(T, k, 3)
-        o += 3 * T * k
-    return E, Hd, flat[o:o + T]
 
 
 def _evaluate(prog: _Program, E: dict, Hd: dict, Ht: np.ndarray, t: float) -> list[Result]:

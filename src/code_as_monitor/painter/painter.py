@@ -23,7 +23,7 @@ from code_as_monitor.core.observation import Observation
 from code_as_monitor.painter.draw import draw_elements
 
 if TYPE_CHECKING:
-    from code_as_monitor.geometry.solid import SupportPlane
+    from code_as_monitor.geometry.support import SupportPlane
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +86,7 @@ class Painter:
 
     def _support(self, obs: Observation) -> SupportPlane | None:
         """The scene's support plane (the table) from this observation's depth, computed once per observation."""
-        from code_as_monitor.geometry.solid import support_plane
+        from code_as_monitor.geometry.support import support_plane
 
         if self._plane is None or self._plane[0] != id(obs):
             self._plane = (id(obs), support_plane([(v.depth, v.camera) for v in obs.views.values()]))
@@ -154,8 +154,8 @@ class Painter:
     def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None) -> Element | None:
         """One element from its per-view (view, points, valid, SegmentResult)."""
         from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
+        from code_as_monitor.geometry.carve import CarveView
         from code_as_monitor.geometry.part_cloud import fuse_part
-        from code_as_monitor.geometry.solid import CarveView
 
         counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, _, r in views]
         # A part seen well enough in some view is built from part masks only: falling back to the whole

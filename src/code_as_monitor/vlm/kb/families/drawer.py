@@ -69,7 +69,7 @@ from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
-from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, freed, part_spec
+from code_as_monitor.vlm.kb.shared.grip import FINGER_LEFT, FINGER_RIGHT, GRIP_TIP, freed, part_spec
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 DRAWER_OPEN = 0.15
@@ -199,9 +199,6 @@ def scene(ins: Instruction) -> list[str] | None:
 
 
 # --- elements and constraint builders ------------------------------------------------------------------
-FINGER_LEFT = {"name": "gripper left finger", "obj": "robot", "part": "finger_left", "kind": "point"}
-FINGER_RIGHT = {"name": "gripper right finger", "obj": "robot", "part": "finger_right", "kind": "point"}
-"""The gripper's jaws at the grasp point's depth, from proprioception; their distance is the jaw opening."""
 
 
 def _handle(obj: str) -> dict[str, str]:

@@ -23,6 +23,9 @@ from code_as_monitor.vlm.kb.shared.codegen import Spec, Template, check_fn, lit,
 
 GRIP_TIP = {"name": "gripper grasp point", "obj": "robot", "part": "tip", "kind": "point"}
 """The grasp point between the fingers, from forward kinematics (never segmented)."""
+FINGER_LEFT = {"name": "gripper left finger", "obj": "robot", "part": "finger_left", "kind": "point"}
+FINGER_RIGHT = {"name": "gripper right finger", "obj": "robot", "part": "finger_right", "kind": "point"}
+"""The gripper's jaws at the grasp point's depth, from proprioception; their distance is the jaw opening."""
 
 
 def part_spec(obj: str, part: str, kind: str, label: str) -> dict[str, str]:

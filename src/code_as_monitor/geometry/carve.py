@@ -1,0 +1,192 @@
+"""Carving a part's hidden sides: push each side of its observed box outwards through space no view sees.
+
+Step 3 of :mod:`code_as_monitor.geometry.solid` (whose docstring gives the whole method): a side no view sees
+past may extend further than the points show (the back of a block seen only from the front; a block under
+another one; a book inside a shelf). Each side is pushed outwards slab by slab while the slab stays hidden in
+every view (:func:`carve`), never below the support plane (:mod:`code_as_monitor.geometry.support`).
+
+World frame, metres; ``axes`` (3, 3) hold one unit axis per row.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from code_as_monitor.core.camera import CameraModel
+from code_as_monitor.geometry.solid import Box
+from code_as_monitor.geometry.support import SupportPlane
+
+CARVE_GRID = 4
+"""Samples per side of a slab (a CARVE_GRID x CARVE_GRID grid over the central part of the face)."""
+CARVE_INSET = 0.02
+"""Fraction of each face dimension left out at its borders when sampling a slab."""
+PIXEL_MARGIN = 1.0
+"""Pixels (of the coarsest view at the part) left out at a face's borders too: a mask's silhouette is only
+known to a pixel, so a sample nearer the border than that may fall just outside the part's mask."""
+CARVE_STOP = 0.1
+"""A slab stops the growth when at least this fraction of its samples (and at least 2) is not hidden."""
+MIN_TOL = 0.003
+"""Metres: the least depth tolerance for "on a surface" (the rendered depth's own precision is far finer)."""
+SHELL = 0.01
+"""Metres: a sample less than this behind another surface is taken to be inside that object."""
+FINE_STEP = 0.001
+"""Metres: the slab step of the final search (the growth is within this of the first blocked slab)."""
+COARSE_SLABS = 16
+"""The first search divides the growth limit into at most this many slabs (at least ``FINE_STEP`` thick)."""
+GROW_LIMIT = 2.0
+"""A side grows at most this many times the part's largest observed extent; one that gets there unbounded is
+hidden from every view, and the part is then taken to be as deep as the smaller of its other two extents."""
+
+
+
+
+@dataclass(frozen=True)
+class CarveView:
+    """One view for carving: ``mask`` (H, W) bool of the part, ``depth`` (H, W) metres, ``camera``, and
+    optionally ``siblings`` (H, W) bool, the same object's other parts (a part never grows behind them)."""
+
+    mask: np.ndarray
+    depth: np.ndarray
+    camera: CameraModel
+    siblings: np.ndarray | None = None
+
+
+_UNIT_GRIDS: dict[int, np.ndarray] = {}
+
+
+def _face_samples(box: Box, axis: int, n: int, inset: float, margin: float = 0.0) -> np.ndarray:
+    """(n*n, 3) coordinates (along the box axes) of a grid over the central part of the face at ``axis``'s hi
+    end, ``inset`` (fraction) and at least ``margin`` metres in from its borders, never past its middle; the
+    caller moves them along ``axis``."""
+    j, k = (1, 2) if axis == 0 else (0, 2) if axis == 1 else (0, 1)
+    ext = box.hi - box.lo
+    g = _UNIT_GRIDS.get(n)
+    if g is None:
+        t = np.linspace(-0.5, 0.5, n)
+        g = _UNIT_GRIDS[n] = np.stack(np.meshgrid(t, t), -1).reshape(-1, 2)
+    S = np.zeros((n * n, 3))
+    for col, a in ((0, j), (1, k)):
+        keep = 1.0 - 2.0 * min(0.5, max(inset, margin / max(ext[a], 1e-9)))  # the central fraction sampled
+        S[:, a] = (box.lo[a] + box.hi[a]) / 2.0 + g[:, col] * keep * ext[a]
+    return S
+
+
+def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
+          grow_axes: Sequence[int] = (0, 1, 2), max_grow: float | None = None) -> Box:
+    """Push the box's hidden sides outwards through space no view sees (step 3 of the module docstring).
+
+    Args:
+        box: the observed box (from :func:`fit_box`).
+        views: the part's views (mask, depth, camera).
+        support: optional support plane (:func:`~.support.support_plane`); nothing grows below it.
+        grow_axes: which axes may grow (a surface keeps its observed thickness).
+        max_grow: metres; the most a side may grow (default: the largest observed extent).
+    Returns:
+        A new box with ``grown`` and ``hidden`` filled in.
+    """
+    ext = box.extent
+    cap = GROW_LIMIT * float(ext.max()) if max_grow is None else float(max_grow)
+    out = Box(box.axes.copy(), box.lo.copy(), box.hi.copy(), box.noise)
+    if cap <= 0 or not views:
+        return out
+    tol = max(MIN_TOL, 3.0 * box.noise)
+    step = max(FINE_STEP, cap / COARSE_SLABS)
+    K = int(np.ceil(cap / step))
+    sides = [(a, sgn) for a in grow_axes for sgn in (-1, 1)]
+    offsets = step * np.arange(1, K + 1)
+    coarse = _slabs_blocked(box, views, support, tol, [(a, sgn, offsets) for a, sgn in sides])
+    fine_jobs, grown = [], []
+    for (a, sgn), bad in zip(sides, coarse):
+        first = int(np.argmax(bad)) if bad.any() else K
+        lo_ok = 0.0 if first == 0 else float(offsets[first - 1])
+        grown.append(lo_ok)
+        out.hidden[1 if sgn > 0 else 0, a] = first == K
+        if first < K and step > FINE_STEP:  # refine between the last free slab and the first blocked one
+            fine_jobs.append((len(grown) - 1, a, sgn, lo_ok + FINE_STEP * np.arange(1, int(step / FINE_STEP))))
+    if fine_jobs:
+        fine = _slabs_blocked(box, views, support, tol, [(a, sgn, offs) for _, a, sgn, offs in fine_jobs])
+        for (k, _, _, offs), bad in zip(fine_jobs, fine):
+            first = int(np.argmax(bad)) if bad.any() else len(offs)
+            if first > 0:
+                grown[k] = float(offs[first - 1])
+    for (a, sgn), g in zip(sides, grown):
+        out.grown[1 if sgn > 0 else 0, a] = g
+    for a in range(3):  # unbounded sides: the part is as deep as the smaller of its other two extents
+        if out.hidden[:, a].any():
+            others = [ext[b] for b in range(3) if b != a]
+            missing = max(0.0, min(others) - ext[a] - out.grown[~out.hidden[:, a], a].sum())
+            out.grown[out.hidden[:, a], a] = missing / int(out.hidden[:, a].sum())
+    out.lo -= out.grown[0]
+    out.hi += out.grown[1]
+    return out
+
+
+def _slabs_blocked(box: Box, views: Sequence[CarveView], support: SupportPlane | None, tol: float,
+                   jobs: Sequence[tuple[int, int, np.ndarray]]) -> list[np.ndarray]:
+    """For each job ``(axis, sign, offsets (K,))``: (K,) bool, True where the slab that far beyond that side of
+    the box is not hidden (see :func:`carve`)."""
+    n = CARVE_GRID
+    blocks = []
+    margin = PIXEL_MARGIN * max(_pixel_size(v.camera, box.centre) for v in views)
+    for a, sgn, offs in jobs:
+        base = _face_samples(box, a, n, CARVE_INSET, margin)
+        edge = box.hi[a] if sgn > 0 else box.lo[a]
+        S = np.repeat(base[None], len(offs), axis=0)
+        S[:, :, a] = edge + sgn * np.asarray(offs)[:, None]
+        blocks.append(S.reshape(-1, 3))
+    W = np.vstack(blocks) @ box.axes  # world
+    bad = np.zeros(len(W), dtype=bool)
+    if support is not None:
+        bad |= W @ support.normal < support.offset - tol
+    for v in views:
+        bad |= ~_hidden_in(W, v, tol)
+    need = max(2, int(np.ceil(CARVE_STOP * n * n)))
+    out, start = [], 0
+    for _, _, offs in jobs:
+        m = len(offs) * n * n
+        out.append(bad[start : start + m].reshape(len(offs), n * n).sum(axis=1) >= need)
+        start += m
+    return out
+
+
+def _pixel_size(camera: CameraModel, p: np.ndarray) -> float:
+    """Metres one pixel of ``camera`` spans at world point ``p`` (3,) (0 behind the camera)."""
+    _, z = camera.project(p[None])
+    return max(float(z[0]), 0.0) / float(min(camera.K[0, 0], camera.K[1, 1]))
+
+
+def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
+    """(N,) True where world points ``W`` (N, 3) may belong to the part as far as ``view`` can tell: outside
+    its image, without a depth reading, behind (or within ``tol`` of) the part's own surface, or more than
+    ``SHELL`` behind a surface of another object (not a sibling part of its own object)."""
+    cam = view.camera
+    R, t = cam.T_world_cam[:3, :3], cam.T_world_cam[:3, 3]
+    pc = (W - t) @ R  # camera frame
+    z = pc[:, 2]
+    H, Wd = view.depth.shape
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.rint(cam.K[0, 0] * pc[:, 0] / z + cam.K[0, 1] * pc[:, 1] / z + cam.K[0, 2])
+        vv = np.rint(cam.K[1, 1] * pc[:, 1] / z + cam.K[1, 2])
+    inside = (z > 1e-6) & np.isfinite(u) & np.isfinite(vv) & (u >= 0) & (u < Wd) & (vv >= 0) & (vv < H)
+    ok = np.ones(len(W), dtype=bool)
+    idx = np.flatnonzero(inside)
+    if len(idx) == 0:
+        return ok
+    ui, vi = u[idx].astype(np.int64), vv[idx].astype(np.int64)
+    D = view.depth[vi, ui].astype(np.float64)
+    zi = z[idx]
+    valid = np.isfinite(D) & (D > 0)
+    own = view.mask[vi, ui]
+    # the part's own surface at or in front of the sample: it may be inside; another surface: only when the
+    # sample lies more than SHELL behind it (closer, it would be inside that other thing); a sibling part's
+    # surface: never (the object's other parts are where the part ends)
+    ok[idx] = ~valid | np.where(own, zi + tol >= D, zi - max(SHELL, tol) > D)
+    if view.siblings is not None:
+        ok[idx] &= ~view.siblings[vi, ui]
+    return ok
+
+
+__all__ = ["CarveView", "carve"]
