@@ -158,3 +158,20 @@ def test_cell_summary_false_alarms_only_for_undisturbed():
     assert cell_summary(recs, undisturbed=True)["detection"]["false_alarms_per_ep"] == pytest.approx(1.0)
     assert math.isnan(cell_summary(recs, undisturbed=False)["detection"]["false_alarms_per_ep"])
     assert cell_summary(recs)["cost"]["calls"] == 2.0
+
+
+def test_report_rules_table_puts_old_and_new_side_by_side():
+    from code_as_monitor.bench.protocol import CONDITIONS
+    from code_as_monitor.bench.report import rules_table
+
+    cond = next(c for c in CONDITIONS if c.id == "stack-p0.3")
+    recs = [
+        {**_rec(0, True, 10.0, alarms=[{"t": 2.2, "proactive": False, "objects": ["robot", "blue_block"]}],
+                gt=[{"t": 2.0, "kind": "drop", "obj": "green_block", "target": "red_block"},
+                    {"t": 2.4, "kind": "block_fell", "obj": "green_block", "on": "table", "on_target": False}]),
+         "condition": cond.id, "method": "cam"},
+    ]
+    lines = rules_table({"conditions": [cond], "records": recs}, ["cam"])
+    row = next(x for x in lines if x.startswith(f"| {cond.label} |"))
+    assert "R 1/1 -> 0/1" in row and "FA 0.00 -> 1.00" in row
+    assert rules_table({"conditions": [cond], "records": recs}, []) == []

@@ -246,7 +246,9 @@ def test_monitor_coder_reasks_after_a_bad_program(server, backend):
     from code_as_monitor.core import Element
 
     els = [Element.point(0, "suction cup tip", [0.5, 0, 0.1], ("robot", "tip")),
-           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", ""))]
+           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", "")),
+           Element.point(2, "red block", [0.4, 0.2, 0.02], ("red_block", "")),
+           Element.point(3, "blue block", [0.6, -0.2, 0.02], ("blue_block", ""))]
     coder = MonitorCoder(backend())
     good = kb_answer(coder.build_messages(sg, els, {}), "monitor_coder")
     server.script = [{"content": "```python\ndef check_something(E, H, t):\n    return True, 'x'\n```"},
@@ -262,7 +264,9 @@ def test_monitor_coder_reads_a_structured_program(server, backend):
     from code_as_monitor.core import Element
 
     els = [Element.point(0, "suction cup tip", [0.5, 0, 0.1], ("robot", "tip")),
-           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", ""))]
+           Element.point(1, "green block", [0.5, 0, 0.02], ("green_block", "")),
+           Element.point(2, "red block", [0.4, 0.2, 0.02], ("red_block", "")),
+           Element.point(3, "blue block", [0.6, -0.2, 0.02], ("blue_block", ""))]
     coder = MonitorCoder(backend())
     good = kb_answer(coder.build_messages(sg, els, {}), "monitor_coder")
     server.script = [{"content": json.dumps({"program": good})}]

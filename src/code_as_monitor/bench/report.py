@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from code_as_monitor.bench.metrics import cell_summary
+from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import CONDITIONS, METHODS
 from code_as_monitor.bench.results_file import versions_of
@@ -206,6 +206,7 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
             row.append(f"R {rec}; lat {_f(d['latency_median'], 2)}; FA {_f(d['unmatched_per_ep'], 2)}; "
                        f"P {pro}; lead {_f(d['lead_median'], 1)}")
         out.append("| " + " | ".join(row) + " |")
+    out += rules_table(summary, checking)
     errs = sum(k["errors"] for k in cells.values())
     out += ["", f"Episodes: {len(summary['records'])}, errors: {errs}; wall time of the sessions: "
             f"{summary['wall_s'] / 60:.1f} min.", "", versions_note(summary)]
@@ -213,6 +214,33 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
         out += ["", f"Not shown (unknown condition or method): {', '.join(summary['ignored'])}."]
     out += ["", STANDIN_NOTE]
     return "\n".join(out) + "\n"
+
+
+def rules_table(summary: dict[str, Any], checking: list[str]) -> list[str]:
+    """Markdown lines: recall, unmatched alarms per episode and proactive precision of every checking method
+    under the first round's detection rule (v1) and this one's (v2), on the same records."""
+    if not checking:
+        return []
+    out = ["", "The same records under the first round's detection rule -> this round's (`bench/metrics.py`): "
+           "recall, unmatched alarms per episode, proactive precision:", "",
+           "| Condition | " + " | ".join(HEADERS[m] for m in checking) + " |", "|---|" + "---|" * len(checking)]
+
+    def fmt(d: dict[str, Any]) -> tuple[str, str, str]:
+        rec = f"{d['detected']}/{d['failures']}" if d["failures"] else "—"
+        pro = f"{d['proactive_confirmed']}/{d['proactive_alarms']}" if d["proactive_alarms"] else "—"
+        return rec, _f(d["unmatched_per_ep"], 2), pro
+
+    for c in summary["conditions"]:
+        row = [c.label]
+        for m in checking:
+            rs = [r for r in summary["records"] if r["condition"] == c.id and r["method"] == m]
+            if not rs:
+                row.append("—")
+                continue
+            old, new = fmt(detection(rs, rule="v1")), fmt(detection(rs, rule="v2"))
+            row.append(f"R {old[0]} -> {new[0]}; FA {old[1]} -> {new[1]}; P {old[2]} -> {new[2]}")
+        out.append("| " + " | ".join(row) + " |")
+    return out
 
 
 def _png(fig: Any) -> str:

@@ -41,7 +41,12 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # The same definition as the simulator's "enclosed" (11 samples, 90 %, 2.5 cm), and it must have
     # held over the last `stable_s` seconds: a rope still being dragged encloses the opening for an
     # instant and opens again, so a halt on one frame stops the robot in a state that does not last.
-    "rope_cover": {"max_gap": 0.025, "samples": 11, "min_fraction": 0.9, "max_z": 0.026, "stable_s": 0.3},
+    # `margin`: a sample counts as covered only within `max_gap - margin`, because the elements are
+    # estimates (bead centres a few mm off even on oracle tracking; the element-accuracy target allows
+    # 8 mm) and one sample flips 90 % to 82 %: a completion read on a borderline frame stopped ropes
+    # the task judged open (seed 27459815: 91 % read from the elements, 82 % true, 73 % after the halt).
+    "rope_cover": {"max_gap": 0.025, "margin": 0.006, "samples": 11, "min_fraction": 0.9, "max_z": 0.026,
+                   "stable_s": 0.3},
 }
 
 
@@ -177,7 +182,8 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...], coverage: float |
             "rope_covers_opening",
             f"{nice(rope)} closes the opening of {nice(shape)}: at least {thr['min_fraction'] * 100:.0f} % of "
             f"the opening (corner_3 to corner_0, corners included) has a resting rope bead within "
-            f"{thr['max_gap'] * 100:.1f} cm, steadily for {thr['stable_s']:g} s",
+            f"{thr['max_gap'] * 100:.1f} cm, steadily for {thr['stable_s']:g} s (judged within "
+            f"{(thr['max_gap'] - thr['margin']) * 100:.1f} cm: the elements are estimates)",
             "upon", False, thr, parts,
         )
     ]
@@ -188,7 +194,8 @@ def covers(c: Spec) -> str:
     c0, c3 = c["element_ids"][:2]
     beads = tuple(c["element_ids"][2:])
     th = c["thresholds"]
-    gap, n, mz, frac = num(th["max_gap"]), int(th["samples"]), num(th["max_z"]), num(th["min_fraction"])
+    gap = num(th["max_gap"] - th.get("margin", 0.0))
+    n, mz, frac = int(th["samples"]), num(th["max_z"]), num(th["min_fraction"])
     win = num(th["stable_s"])
     body = f"""
     s = np.linspace(0.0, 1.0, {n})
