@@ -42,7 +42,7 @@ from code_as_monitor.painter import Painter
 from code_as_monitor.perception import SegmenterConfig, make_segmenter
 from code_as_monitor.sim.cameras import CameraSpec, SimCamera
 from code_as_monitor.sim.env import make_env
-from code_as_monitor.sim.tasks.base import task_names
+from code_as_monitor.sim.tasks import task_names
 
 W, H = 320, 240
 SHOULDERS = (

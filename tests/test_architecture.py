@@ -13,11 +13,13 @@ Two kinds of edges:
   module-level ``if``/``try`` blocks. ``if TYPE_CHECKING:`` blocks never run and are left out.
 - **deferred**: imports inside a function or lambda, run on the first call.
 
+``importlib.import_module("a.b")`` and ``__import__("a.b")`` with a literal name are imports too.
+
 A circle is a circle in *either* graph: the check runs on load-time plus deferred edges, so moving an import
-into a function does not hide a circle. The way out of a circle is a registry that loads implementations by
-name (``importlib.import_module`` of a string, as :func:`code_as_monitor.core.registry.build_lazily` and
-:mod:`code_as_monitor.vlm.kb.registry` do: not an edge here), or the shared helpers moved into a module both
-sides import.
+into a function (or spelling it as a literal ``import_module``) does not hide a circle. The way out of a circle
+is a registry that loads implementations by name (``importlib.import_module`` of a name looked up in a table,
+as :func:`code_as_monitor.core.registry.build_lazily` and :mod:`code_as_monitor.vlm.kb.registry` do: not an
+edge here), or the shared helpers moved into a module both sides import.
 
 The layering rule: ``core``, ``geometry``, ``perception``, ``vlm``, ``painter``, ``monitor``, ``planning`` and
 ``agent`` never import ``sim`` or ``recordings`` (deferred imports included).
@@ -48,12 +50,6 @@ LONG_MODULES_BEING_SPLIT: dict[str, str] = {
 }
 """Modules over the limit whose split is another change's work, allowed here only until it lands."""
 
-CIRCLES_BEING_FIXED: dict[str, str] = {
-    "code_as_monitor.agent.": "Monitor.from_config -> build_monitor -> Monitor (being untangled on the 'arch' branch)",
-    "code_as_monitor.sim.tasks": "task_names() in tasks.base imports the package that imports base (waits for the "
-                                 "'rlbench' helper's new tasks to land)",
-}
-"""Known circles counting deferred imports, by the package prefix all their modules share, allowed until fixed."""
 
 
 @dataclass
@@ -82,6 +78,17 @@ def _is_type_checking(test: ast.expr) -> bool:
     )
 
 
+def _literal_import(node: ast.AST) -> str | None:
+    """The module of ``importlib.import_module("a.b")`` or ``__import__("a.b")`` with a literal name (an import
+    by another spelling, so it counts); None for anything else (a registry's name from a table is no edge)."""
+    if not (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
+            and isinstance(node.args[0].value, str)):
+        return None
+    f = node.func
+    name = f.attr if isinstance(f, ast.Attribute) else f.id if isinstance(f, ast.Name) else ""
+    return node.args[0].value if name in ("import_module", "__import__") else None
+
+
 def _imports(tree: ast.Module) -> list[tuple[ast.Import | ast.ImportFrom, bool]]:
     """Every import statement with whether it runs at load time (False: inside a function or lambda)."""
     out: list[tuple[ast.Import | ast.ImportFrom, bool]] = []
@@ -97,6 +104,8 @@ def _imports(tree: ast.Module) -> list[tuple[ast.Import | ast.ImportFrom, bool]]
     def visit_stmt(child: ast.AST, at_load: bool) -> None:
         if isinstance(child, (ast.Import, ast.ImportFrom)):
             out.append((child, at_load))
+        elif (literal := _literal_import(child)) is not None:
+            out.append((ast.Import(names=[ast.alias(name=literal)]), at_load))
         inner = at_load and not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
         visit(child, inner)
 
@@ -215,18 +224,8 @@ def test_no_import_circle_at_load_time():
     assert cycles(GRAPH.load) == []
 
 
-def _allowed_circle(circle: list[str]) -> bool:
-    return any(all(m.startswith(prefix) for m in circle) for prefix in CIRCLES_BEING_FIXED)
-
-
 def test_no_import_circle_counting_deferred_imports():
-    assert [c for c in cycles(GRAPH.all_edges()) if not _allowed_circle(c)] == []
-
-
-def test_circle_allow_list_is_still_needed():
-    found = cycles(GRAPH.all_edges())
-    stale = [p for p in CIRCLES_BEING_FIXED if not any(all(m.startswith(p) for m in c) for c in found)]
-    assert stale == [], f"remove from CIRCLES_BEING_FIXED: {stale}"
+    assert cycles(GRAPH.all_edges()) == []
 
 
 def test_no_module_over_400_lines():
@@ -362,7 +361,9 @@ def test_kb_family_module_holds_its_rules(name):
         ("class C:\n    from . import b\n", ({"x.b"}, set())),
         ("from .b import thing\n", ({"x.b"}, set())),
         ("try:\n    import x.b\nexcept ImportError:\n    pass\n", ({"x.b"}, set())),
-        ("f = lambda: __import__('x.b')\n", (set(), set())),
+        ("f = lambda: __import__('x.b')\n", (set(), {"x.b"})),
+        ("import importlib\nM = importlib.import_module('x.b')\n", ({"x.b"}, set())),
+        ("import importlib\nT = {'b': 'x.b'}\ndef f(n):\n    return importlib.import_module(T[n])\n", (set(), set())),
     ],
 )
 def test_graph_builder_on_small_packages(tmp_path, source, expected):
@@ -386,7 +387,7 @@ def report(g: Graph) -> str:
     lines.append(f"load-time circles: {len(load_cycles)}")
     lines += [f"  {' <-> '.join(c)}" for c in load_cycles]
     lines.append(f"circles counting deferred imports: {len(all_cycles)}")
-    lines += [f"  {' <-> '.join(c)}" + (" (allow-listed)" if _allowed_circle(c) else "") for c in all_cycles]
+    lines += [f"  {' <-> '.join(c)}" for c in all_cycles]
     over = long_modules(g)
     lines.append(f"modules over {MAX_LINES} lines: {len(over)}")
     lines += [f"  {m} {n}" + (" (allow-listed)" if m in LONG_MODULES_BEING_SPLIT else "") for m, n in over.items()]

@@ -145,3 +145,15 @@ def test_the_public_api_imports_no_simulator() -> None:
             "bad = [m for m in sys.modules if m.startswith(('code_as_monitor.sim', 'pybullet'))]; print(bad)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_from_config_builds_the_stages_from_their_names():
+    from code_as_monitor.agent.monitor import build_monitor
+
+    skills = {"pick": "pick an object up", "place": "put the held object down"}
+    with build_monitor(MonitorConfig(backend="kb", segmenter="sim", tracker="sim", max_replans=3),
+                       skills=skills) as m:
+        assert m.planner.skills == skills and m.usage is m.planner.usage
+        assert type(m.checker).__name__ == "CodeChecker" and m.max_replans == 3
+    with Monitor.from_config(MonitorConfig(backend="kb", segmenter="sim", tracker="sim")) as m:
+        assert "pick" in m.planner.skills and len(m.planner.skills) > 2  # every simulator skill

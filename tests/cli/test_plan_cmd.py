@@ -146,7 +146,7 @@ def test_plan_openai_sends_images(server, capsys, tmp_path):
     rc = main(["plan", STACK, "--backend", "openai", "--base-url", server.url, "--api-key-env", "none",
                "--image", str(path), "--image", f"top={path}"])
     assert rc == 0 and "1. pick up the green block" in capsys.readouterr().out
-    assert server.image_counts == [2]
+    assert server.image_counts == [1]  # both small views stacked into one low-detail image
 
 
 def test_plan_openai_server_options_reach_the_request(server, capsys):

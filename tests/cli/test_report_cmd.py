@@ -98,3 +98,19 @@ def test_empty_results_file_is_one_line_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no episode records" in err[0]
     assert not (tmp_path / "r-report").exists()
+
+
+def test_cost_table_gives_cam_over_doremi_tokens(tmp_path):
+    lines = [{"kind": "bench_start", "options": {"backend": "kb"}, "epoch": 1000.0}]
+    for method, tokens in (("doremi", [1000, 3000]), ("cam", [500, 700])):
+        for ep, n in enumerate(tokens):
+            lines.append({"kind": "episode", "condition": "stack-p0", "method": method, "seed": 0, "episode": ep,
+                          "success": True, "sim_time_s": 10.0, "wall_time_s": 1.0, "finished_at": 1010.0,
+                          "vlm": {"calls": 4, "total_tokens": n}, "alarms": [], "gt": [], "error": None})
+    res = tmp_path / "r.jsonl"
+    res.write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+    assert main(["report", str(res), "--out", str(tmp_path / "rep")]) == 0
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "estimates offline; last column CaM / DoReMi tokens" in md
+    assert "| +DoReMi | +Ours (CaM) | CaM / DoReMi tokens |" in md
+    assert "/ 2000 / " in md and "/ 600 / " in md and "| 0.30x |" in md  # means 600 / 2000

@@ -180,7 +180,7 @@ DENIAL: list[tuple[str, str, str, str]] = [
     ("nested_repr", _a("x = []\nfor i in range(10 ** 5):\n    x = [x]\nreturn True, str(x)"), "fault",
      "RecursionError"),
     ("hash_deep_tuple", _a("x = ()\nfor i in range(2 * 10 ** 5):\n    x = (x,)\ns = {x}\nreturn True, 'x'"),
-     "frame", "died"),
+     "either", "died|deadline"),  # a C stack overflow; building the tuple can overrun on a loaded machine
     ("dict_comprehension_huge", _a("d = {i: i for i in range(10 ** 9)}\nreturn True, 'x'"), "either",
      "MemoryError|deadline"),
 ]

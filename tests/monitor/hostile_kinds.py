@@ -23,6 +23,8 @@ KINDS: list[tuple[str, str, str, str]] = [
      "fault", "ValueError"),
     ("percent_repr_of_helper", _a("return True, '%r' % (distance,)"), "clean", "0x?"),
     ("fstring_repr_of_bound_method", _a("return True, f'{E.get!r}'"), "clean", "0x?"),
+    ("reason_unicode_line_breaks", _a("return True, 'one\\u2028two\\u2029three\\u202eowt\\u200bfour\\ufeff'"),
+     "clean", "one two three owt four"),
     ("str_of_np_member", _a("return True, str(np.linalg.norm) + repr(np.linalg)"), "clean", "np.linalg"),
     # --- builtins and modules through allowed objects ---------------------------------------------------
     ("unbound_dict_method", _a("p = dict.get(E, 0)\nreturn True, 'x'"), "fault", "TypeError"),

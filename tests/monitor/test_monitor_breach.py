@@ -27,7 +27,7 @@ from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, 
 
 from code_as_monitor.monitor import process
 from code_as_monitor.monitor import sandbox as sandbox_module
-from code_as_monitor.monitor.protocol import REASON_MAX
+from code_as_monitor.monitor.protocol import _CONTROL, REASON_MAX
 from code_as_monitor.monitor.sandbox import Sandbox
 
 
@@ -45,7 +45,7 @@ def breached():
 
 
 def _clean(reason: str) -> bool:
-    return (len(reason) <= REASON_MAX and not re.search(r"[\x00-\x1f\x7f-\x9f]", reason)
+    return (len(reason) <= REASON_MAX and not _CONTROL.search(reason)
             and not re.search(r"0x[0-9a-fA-F]{5,}", reason) and "hunter2" not in reason)
 
 

@@ -149,6 +149,9 @@ def test_clean_text():
     assert protocol.clean_text("a\x1b[31mb\nc") == "a [31mb c"
     assert protocol.clean_text("<f at 0x7ffe12345678>") == "<f at 0x?>"
     assert protocol.clean_text("0x10 stays") == "0x10 stays"
+    assert protocol.clean_text("one\u2028two\u2029three\u202efour\u200b\ufefffive\u2066six") == \
+        "one two three four five six"
+    assert protocol.clean_text("caf\u00e9 \U0001F916 \u00b0") == "caf\u00e9 \U0001F916 \u00b0"  # text stays
     long = protocol.clean_text("z" * 1000)
     assert len(long) == protocol.REASON_MAX and long.endswith("...")
 

@@ -21,7 +21,7 @@ from hostile_programs import CORPUS, GOOD
 from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, snapshot
 
 from code_as_monitor.core.errors import ProgramError
-from code_as_monitor.monitor.protocol import REASON_MAX
+from code_as_monitor.monitor.protocol import _CONTROL, REASON_MAX
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
 
@@ -61,7 +61,7 @@ def test_corpora_are_large_and_mixed():
 
 
 def _clean(reason: str) -> bool:
-    return (len(reason) <= REASON_MAX and not re.search(r"[\x00-\x1f\x7f-\x9f]", reason)
+    return (len(reason) <= REASON_MAX and not _CONTROL.search(reason)
             and not re.search(r"0x[0-9a-fA-F]{5,}", reason))
 
 

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import ast
+import json
+import subprocess
+import sys
+import textwrap
 
 import pytest
 from hostile_programs import GOOD
@@ -104,6 +108,50 @@ def test_size_limits(constraints):
         validate_program(big, constraints)
     with pytest.raises(ProgramError):
         validate_program(GOOD + "Y = " + "(" * 500 + "1" + ")" * 500 + "\n", constraints)
+
+
+PARSE_BOMBS = {
+    "unary_minus": "-" * 45_000 + "1",
+    "not_chain": "not " * 11_000 + "t",
+    "add_chain": "1+" * 22_000 + "1",
+    "attribute_chain": "t" + ".real" * 9_000,
+    "subscript_chain": "t" + "[0]" * 15_000,
+    "call_chain": "abs" + "(1)" * 15_000,
+    "and_chain": "t and " * 8_000 + "t",
+    "compare_chain": "t < " * 11_000 + "t",
+    "conditional_chain": "1 if t else " * 4_000 + "1",
+    "power_chain": "2**" * 16_000 + "2",
+    "nested_lambdas": "(lambda: " * 3_000 + "1" + ")" * 3_000,
+    "nested_lists": "[" * 180 + "]" * 180,
+}
+"""Expressions (under the 50 000-character limit) built to exhaust the parser's or the checker's stack."""
+
+
+def test_parse_bombs_are_rejected_by_the_host_without_crashing():
+    """The control process parses untrusted text: every bomb is a ProgramError, never a crash (run in a
+    child process so that a crash would show as its exit status instead of taking pytest down)."""
+    script = textwrap.dedent("""
+        import json, sys
+        from code_as_monitor.core.constraints import Constraint, Phase
+        from code_as_monitor.core.errors import ProgramError
+        from code_as_monitor.monitor.validate import validate_program
+        out = {}
+        for name, expr in json.loads(sys.stdin.read()).items():
+            src = "def check_a(E, H, t):\\n    return True, 'x', " + expr + "\\n"
+            try:
+                validate_program(src, [Constraint("a", "x", Phase.DURING)])
+                out[name] = "accepted"
+            except ProgramError as exc:
+                out[name] = "rejected: " + str(exc)
+        print(json.dumps(out))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], input=json.dumps(PARSE_BOMBS), capture_output=True,
+                          text=True, timeout=240)
+    assert done.returncode == 0, done.stderr[-2000:]
+    results = json.loads(done.stdout)
+    assert set(results) == set(PARSE_BOMBS)
+    for name, outcome in results.items():
+        assert outcome.startswith("rejected: monitor program rejected"), (name, outcome[:200])
 
 
 def test_non_string_source(constraints):

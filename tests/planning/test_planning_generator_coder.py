@@ -52,10 +52,26 @@ def test_generator_request_carries_everything_eq1_needs():
     assert purpose == "constraint_generator" and [m.role for m in msgs] == ["system", "user"]
     assert "`pick`" in msgs[0].text and "during" in msgs[0].text and "proactive" in msgs[0].text
     req = extract_request(msgs[1].text)
-    assert req["instruction"] == "stack" and req["objects"] == OBJECTS and req["views"] == ["front", "top"]
+    assert req["instruction"] == "stack" and req["objects"] == OBJECTS
     assert req["previous_subgoal"]["action"] == {"skill": "pick", "args": {"obj": "red_block"}}
     assert req["feedback"] == "red_block dropped"
-    assert [im.label for im in msgs[1].images] == ["front", "top"]
+    # both views in one low-detail image, front above top, and the text says so
+    assert [(im.label, im.detail, im.rgb.shape) for im in msgs[1].images] == [("front+top", "low", (8, 4, 3))]
+    assert (msgs[1].images[0].rgb[:4] == 0).all() and (msgs[1].images[0].rgb[4:] == 1).all()
+    assert "'front', 'top', top to bottom" in msgs[1].text
+    # said once: the request is the whole user text (no prose copy of it)
+    assert msgs[1].text.count("red_block dropped") == 1 and msgs[1].text.count("stack") == 1
+
+
+def test_generator_views_fit_the_low_detail_view():
+    be = Scripted(json.dumps(ANSWER))
+    gen = ConstraintGenerator(be, skills={"pick": "args {obj}: pick it up"})
+    big = np.zeros((480, 1024, 3), np.uint8)
+    gen.next_subgoal("stack", {"front": big, "top": np.zeros((240, 320, 3), np.uint8)}, OBJECTS)
+    msgs = be.calls[0][0]
+    # stacked (720 x 1024) then scaled down to fit 512 x 512, one image at detail low
+    assert [(im.rgb.shape, im.detail) for im in msgs[1].images] == [((360, 512, 3), "low")]
+    assert "`pick`" in msgs[0].text and "`place_on`" not in msgs[0].text  # only the policy's skills
 
 
 def test_generator_reasks_then_raises():
@@ -128,11 +144,66 @@ def test_coder_request_and_reasks():
     assert purpose == "monitor_coder"
     req = extract_request(first[1].text)
     assert [c["element_ids"] for c in req["constraints"]] == [[0, 1], [1, 2]]
-    assert req["elements"][2] == {"id": 2, "kind": "point", "name": "red", "owner": ["red_block", ""]}
-    assert req["feedback"] == "branch never reached" and "rejected: branch never reached" in first[1].text
-    assert "- 1: point, green, owner green_block/(whole)" in first[1].text
+    assert "parts" not in req["constraints"][0]  # the legend says what each element is, once
+    assert req["elements"] == [[0, "point", "robot/tip", "tip"], [1, "point", "green_block", "green"],
+                               [2, "point", "red_block", "red"]]
+    assert req["feedback"] == "branch never reached" and first[1].text.count("branch never reached") == 1
+    assert [(im.label, im.detail) for im in first[1].images] == [("front", "low")]
     assert "syntax error" in be.calls[1][0][-1].text
     assert "missing function check_centred" in be.calls[2][0][-1].text
+
+
+def test_coder_views_lossless_and_one_image_when_they_fit():
+    sg = _subgoal()
+    coder = MonitorCoder(Scripted(GOOD_PROGRAM))
+    small = {"front": np.zeros((240, 320, 3), np.uint8), "top": np.full((240, 300, 3), 7, np.uint8)}
+    msgs = coder.build_messages(sg, _elements(sg), small)
+    [im] = msgs[1].images  # 480 x 320 fits the low-detail view: one image, every pixel kept
+    assert im.detail == "low" and im.rgb.shape == (480, 320, 3)
+    assert (im.rgb[240:, :300] == 7).all() and (im.rgb[240:, 300:] == 0).all()
+    big = {"front": np.zeros((480, 640, 3), np.uint8), "top": np.zeros((240, 320, 3), np.uint8)}
+    msgs = coder.build_messages(sg, _elements(sg), big)  # too big to stack losslessly: each on its own
+    assert [(im.label, im.detail, im.rgb.shape) for im in msgs[1].images] == [
+        ("front", "high", (480, 640, 3)), ("top", "low", (240, 320, 3))]
+
+
+def test_coder_reuses_an_accepted_program_for_the_same_request():
+    sg = _subgoal()
+    els = _elements(sg)
+    be = Scripted(GOOD_PROGRAM, GOOD_PROGRAM.replace('"ok"', '"fine"'))
+    coder = MonitorCoder(be)
+    checked: list[str] = []
+
+    def check(source: str) -> None:
+        checked.append(source)
+
+    first = coder.write_program(sg, els, {}, check)
+    again = coder.write_program(sg, els, {"front": np.zeros((2, 2, 3), np.uint8)}, check)
+    assert again == first and len(be.calls) == 1 and coder.reused == 1 and checked == [first, first]
+    assert coder.usage.calls == 1
+    # another threshold is another request: the model is asked
+    sg2 = _subgoal()
+    sg2.constraints[1].thresholds = {"max_offset": 0.02}
+    assert coder.write_program(sg2, els, {}, check) != first and len(be.calls) == 2
+
+
+def test_coder_asks_again_when_the_kept_program_fails_its_check():
+    sg = _subgoal()
+    els = _elements(sg)
+    be = Scripted(GOOD_PROGRAM, GOOD_PROGRAM, GOOD_PROGRAM)
+    coder = MonitorCoder(be)
+    coder.write_program(sg, els, {}, basic_check(["attached", "centred"]))
+
+    def reject_once(source: str, seen: list[int] = [0]) -> None:  # noqa: B006 - a counter across calls
+        seen[0] += 1
+        if seen[0] == 1:
+            raise ProgramError("branch never reached")
+
+    coder.write_program(sg, els, {}, reject_once)
+    assert len(be.calls) == 2 and coder.reused == 0  # the kept one was re-checked, failed, and dropped
+    coder.write_program(sg, els, {}, basic_check(["attached", "centred"]), feedback="x")
+    assert len(be.calls) == 3  # a regeneration with feedback never takes a kept program
+    assert not MonitorCoder(Scripted()).reused
 
 
 def test_coder_gives_up_with_a_specific_error():

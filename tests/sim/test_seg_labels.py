@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("pybullet")
 
 from code_as_monitor.sim.env import make_env
-from code_as_monitor.sim.tasks.base import task_names
+from code_as_monitor.sim.tasks import task_names
 from code_as_monitor.sim.world import WorldConfig
 
 

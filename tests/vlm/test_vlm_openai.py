@@ -272,3 +272,41 @@ def test_monitor_coder_reads_a_structured_program(server, backend):
     server.script = [{"content": json.dumps({"program": good})}]
     src = coder.write_program(sg, els, {}, basic_check([c.id for c in sg.constraints]))
     assert "def check_held_green_block(E, H, t):" in src and "```" not in src
+
+
+def test_the_server_gets_the_lean_prompts_with_their_images_and_details(server, backend):
+    import base64
+
+    import cv2
+
+    from code_as_monitor.core import Element
+    from code_as_monitor.planning.coder import legend_specs
+
+    front = np.zeros((240, 320, 3), np.uint8)
+    front[0, 0] = (255, 0, 0)
+    top = np.full((240, 320, 3), 9, np.uint8)
+    gen = ConstraintGenerator(backend(image_detail="high"))
+    good = kb_answer(gen.build_messages(STACK, {"front": front, "top": top}, OBJECTS, None, None),
+                     "constraint_generator")
+    server.script = [{"content": good}]
+    sg = gen.next_subgoal(STACK, {"front": front, "top": top}, OBJECTS)
+    [system, user] = server.requests[0]["messages"]
+    assert "`pick`" in system["content"] and '"parts"' in system["content"]
+    texts = [p["text"] for p in user["content"] if p["type"] == "text"]
+    assert STACK in texts[0] and "```json request" in texts[0] and "'front', 'top', top to bottom" in texts[1]
+    [image] = [p["image_url"] for p in user["content"] if p["type"] == "image_url"]
+    assert image["detail"] == "low"  # the part's own detail wins over the backend's "high"
+    png = base64.b64decode(image["url"].split(",", 1)[1])
+    sent = cv2.cvtColor(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    assert sent.shape == (480, 320, 3) and tuple(sent[0, 0]) == (255, 0, 0) and (sent[240:] == 9).all()
+
+    els = [Element(i, p.name, p.kind, np.zeros((1 if p.kind.value == "point" else 2, 3)), (p.obj, p.part))
+           for i, p in enumerate(legend_specs(sg))]
+    coder = MonitorCoder(backend())
+    server.script = [{"content": kb_answer(coder.build_messages(sg, els, {"front": front}), "monitor_coder")}]
+    coder.write_program(sg, els, {"front": front}, basic_check([c.id for c in sg.constraints]))
+    user = server.requests[1]["messages"][1]["content"]
+    assert [p["image_url"]["detail"] for p in user if p["type"] == "image_url"] == ["low"]
+    legend = "[" + ",".join(f'[{e.id},"{e.kind.value}","{e.owner[0]}{"/" + e.owner[1] if e.owner[1] else ""}",'
+                            f'"{e.name}"]' for e in els) + "]"
+    assert f'"elements":{legend}' in user[0]["text"]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.config import AgentConfig
-from code_as_monitor.agent.monitor import MonitorContext, SubgoalEnd
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError

@@ -1,21 +1,17 @@
-"""Settings of the closed loop and the one place that builds a Code-as-Monitor :class:`Monitor`.
+"""Settings of the closed loop and of a Code-as-Monitor :class:`~code_as_monitor.agent.monitor.Monitor`.
 
 :class:`AgentConfig` holds the loop's own settings (rate, bounds, dwell, settle); :class:`MonitorConfig`
 adds the swappable stages, chosen by their registered names: the VLM backend (planner and coder), the
-segmenter, the tracker, and which cameras to use.
+segmenter, the tracker, and which cameras to use. :mod:`code_as_monitor.agent.build` builds the stages from them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
 from code_as_monitor.core.errors import ConfigError
-
-if TYPE_CHECKING:
-    from code_as_monitor.agent.monitor import Monitor
 
 
 @dataclass
@@ -85,6 +81,9 @@ class MonitorConfig(AgentConfig):
         cameras: view names the monitor uses; None: every view of each observation.
         deadline_s: the sandbox's per-frame deadline for running every check (seconds); a frame past
             it is a program fault for every check (no verdict). 20 ms suits 10 Hz on an idle machine.
+        allow_unconfined: run generated monitor code even where the worker's kernel confinement (seccomp,
+            no_new_privs, namespaces) cannot be installed: an explicit opt-out, off by default (then such a
+            machine refuses to run generated code and says why). ``CAM_ALLOW_UNCONFINED=1`` does the same.
     """
 
     backend: str = "kb"
@@ -95,11 +94,14 @@ class MonitorConfig(AgentConfig):
     tracker_options: dict[str, Any] = field(default_factory=dict)
     cameras: list[str] | None = None
     deadline_s: float = 0.020
+    allow_unconfined: bool = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not self.deadline_s > 0:
             raise ConfigError(f"MonitorConfig.deadline_s must be > 0, got {self.deadline_s!r}")
+        if not isinstance(self.allow_unconfined, bool):
+            raise ConfigError(f"MonitorConfig.allow_unconfined must be true or false, got {self.allow_unconfined!r}")
         if self.cameras is not None and (not self.cameras or not all(isinstance(c, str) and c for c in self.cameras)):
             raise ConfigError(f"MonitorConfig.cameras must be a non-empty list of view names or None, "
                               f"got {self.cameras!r}")
@@ -118,39 +120,4 @@ class MonitorConfig(AgentConfig):
         return AgentConfig(**{k: getattr(self, k) for k in AgentConfig.__dataclass_fields__})
 
 
-def build_monitor(config: MonitorConfig, on_event: Callable[..., Any] | None = None, on_frame: Any = None,
-                  on_prompt: Any = None, backend: Any = None) -> Monitor:
-    """Build Code-as-Monitor from ``config``: backend -> planner and coder, segmenter -> painter,
-    tracker, a sandboxed runtime and element histories. ``backend``: an already built backend to use
-    instead of ``config.backend`` (e.g. one whose configuration was checked before a run directory
-    was made). The monitor owns the runtime's worker; call :meth:`Monitor.close`."""
-    from code_as_monitor.agent.code_checker import CodeChecker
-    from code_as_monitor.agent.monitor import Monitor
-    from code_as_monitor.monitor.runtime import MonitorRuntime
-    from code_as_monitor.painter import Painter
-    from code_as_monitor.perception import (
-        ElementHistory,
-        SegmenterConfig,
-        TrackerConfig,
-        make_segmenter,
-        make_tracker,
-    )
-    from code_as_monitor.planning.coder import MonitorCoder
-    from code_as_monitor.planning.generator import ConstraintGenerator
-    from code_as_monitor.vlm import VLMBackendConfig, make_backend
-
-    if backend is None:
-        backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
-    generator = ConstraintGenerator(backend)
-    coder = MonitorCoder(backend, usage=generator.usage)
-    painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
-    tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
-    runtime = MonitorRuntime(deadline_s=config.deadline_s)
-    checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),
-                          on_frame=on_frame, on_prompt=on_prompt)
-    return Monitor(generator, checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
-                   time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
-                   usage=generator.usage, owned=[runtime])
-
-
-__all__ = ["AgentConfig", "MonitorConfig", "build_monitor"]
+__all__ = ["AgentConfig", "MonitorConfig"]

@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, Protocol
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 from code_as_monitor.agent.decision import Decision, DecisionKind
 from code_as_monitor.agent.records import (
@@ -44,6 +44,7 @@ from code_as_monitor.agent.records import (
     EpisodeLog,
     SubgoalRecord,
 )
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalChecker, SubgoalEnd
 from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.errors import ConfigError, ObservationError, VLMError
 from code_as_monitor.core.observation import Observation
@@ -58,64 +59,6 @@ EventFn = Callable[..., Any]
 
 def _noop_event(kind: str, **fields: Any) -> None:
     return None
-
-
-@dataclass
-class SubgoalEnd:
-    """A checker's verdict that the current subgoal is over: its outcome, reason, and whether the
-    policy must be halted (it is still moving)."""
-
-    outcome: str
-    reason: str
-    halt: bool = False
-    code_attempts: int = 0
-
-
-class SubgoalChecker(Protocol):
-    """The per-subgoal part of a method (Code-as-Monitor's, or a baseline's)."""
-
-    def start_episode(self, obs: Observation) -> None:
-        """Called with the episode's first observation (the one the first subgoal is planned on)."""
-
-    def begin(self, index: int, subgoal: Subgoal, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
-        """Prepare to watch ``subgoal`` from ``obs``; a :class:`SubgoalEnd` ends it before it starts."""
-
-    def frame_due(self, t: float, policy_done: bool) -> bool:
-        """Whether the checker wants a frame at time ``t`` (frames in between are skipped)."""
-
-    def frame(self, obs: Observation, policy_done: bool, ctx: MonitorContext) -> SubgoalEnd | None:
-        """Judge one due frame; None: the subgoal goes on."""
-
-    def close(self) -> None:
-        """Release workers and files."""
-
-
-class MonitorContext:
-    """What a checker may use of the monitor: events, alarms, the episode log, the time limit."""
-
-    def __init__(self, monitor: Monitor) -> None:
-        self._m = monitor
-
-    @property
-    def episode(self) -> EpisodeLog:
-        return self._m.episode
-
-    def emit(self, kind: str, **fields: Any) -> None:
-        self._m.emit(kind, **fields)
-
-    def out_of_time(self, t: float) -> bool:
-        limit = self._m.time_limit_s
-        return limit is not None and t >= limit
-
-    def alarm(self, subgoal: Subgoal, constraint_id: str, phase: str, reason: str, t: float) -> Alarm:
-        """Record and emit an alarm on ``constraint_id`` (proactive when its constraint is)."""
-        c = next((c for c in subgoal.constraints if c.id == constraint_id), None)
-        objects = sorted({p.obj for p in c.parts}) if c is not None else []
-        a = Alarm(t, constraint_id, phase, bool(c and c.proactive), reason, subgoal.text, objects)
-        self._m.episode.alarms.append(a)
-        self._m._frame_alarms.append(a)
-        self.emit("alarm", **a.to_dict())
-        return a
 
 
 class Monitor:
@@ -162,12 +105,18 @@ class Monitor:
 
     @classmethod
     def from_config(cls, config: MonitorConfig, on_event: EventFn | None = None, on_frame: Any = None,
-                    on_prompt: Any = None) -> Monitor:
-        """Build Code-as-Monitor from a :class:`~code_as_monitor.agent.config.MonitorConfig`
-        (VLM backend, segmenter, tracker, cameras, rates); see :func:`~code_as_monitor.agent.config.build_monitor`."""
-        from code_as_monitor.agent.config import build_monitor
+                    on_prompt: Any = None, backend: Any = None, skills: dict[str, str] | None = None) -> Monitor:
+        """Build Code-as-Monitor from a :class:`~code_as_monitor.agent.config.MonitorConfig` (VLM backend,
+        segmenter, tracker, cameras, rates): the stages come from :func:`~code_as_monitor.agent.build.build_stages`
+        (``backend``: an already built backend to use instead of ``config.backend``; ``skills``: the policy's
+        skills, name -> description, for the planner). The monitor owns the sandbox runtime's worker; call
+        :meth:`close`."""
+        from code_as_monitor.agent.build import build_stages
 
-        return build_monitor(config, on_event=on_event, on_frame=on_frame, on_prompt=on_prompt)
+        stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend, skills=skills)
+        return cls(stages.planner, stages.checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
+                   time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
+                   usage=stages.planner.usage, owned=[stages.runtime])
 
     # ------------------------------------------------------------------------------------------------
     @property
@@ -338,4 +287,11 @@ class Monitor:
         return Decision(kind, t, halt=halt, violations=list(self._frame_alarms), ended=ended, reason=ep.stop_reason)
 
 
-__all__ = ["Monitor", "MonitorContext", "SubgoalChecker", "SubgoalEnd"]
+def build_monitor(config: MonitorConfig, on_event: EventFn | None = None, on_frame: Any = None,
+                  on_prompt: Any = None, backend: Any = None, skills: dict[str, str] | None = None) -> Monitor:
+    """:meth:`Monitor.from_config` as a function (the benchmark's and the bag replay's callers)."""
+    return Monitor.from_config(config, on_event=on_event, on_frame=on_frame, on_prompt=on_prompt, backend=backend,
+                               skills=skills)
+
+
+__all__ = ["Monitor", "MonitorContext", "SubgoalChecker", "SubgoalEnd", "build_monitor"]

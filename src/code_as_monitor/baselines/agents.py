@@ -30,8 +30,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.agent.drive import drive
-from code_as_monitor.agent.monitor import Monitor, MonitorContext, SubgoalEnd
+from code_as_monitor.agent.monitor import Monitor
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS, EpisodeLog, SubgoalRecord
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.core.policy import Policy

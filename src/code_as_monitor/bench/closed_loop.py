@@ -45,6 +45,8 @@ class ClosedLoopConfig:
         video: write ``episode.mp4``.
         max_replans: failed subgoals allowed.
         deadline_s: the sandbox's per-frame deadline (see ``MonitorConfig.deadline_s``).
+        allow_unconfined: the explicit opt-out of the sandbox's kernel confinement (see
+            ``MonitorConfig.allow_unconfined``).
     """
 
     task: str = "stack-in-order"
@@ -62,6 +64,7 @@ class ClosedLoopConfig:
     video: bool = True
     max_replans: int = DEFAULT_MAX_REPLANS
     deadline_s: float = 0.020
+    allow_unconfined: bool = False
 
     def __post_init__(self) -> None:
         check_seed("ClosedLoopConfig", self.seed)
@@ -79,7 +82,7 @@ class ClosedLoopConfig:
             backend=self.backend, backend_options=dict(self.backend_options), segmenter=self.segmenter,
             segmenter_options=dict(self.segmenter_options), tracker=self.tracker,
             tracker_options=dict(self.tracker_options), frame_hz=self.camera_hz, max_replans=self.max_replans,
-            time_limit_s=time_limit_s, deadline_s=self.deadline_s,
+            time_limit_s=time_limit_s, deadline_s=self.deadline_s, allow_unconfined=self.allow_unconfined,
         )
 
 
@@ -138,10 +141,11 @@ def run_closed_loop(
     An exception or an interrupt still writes ``summary.json`` (outcome ``error`` / ``interrupted``)
     and is then re-raised.
     """
-    from code_as_monitor.agent.config import build_monitor
     from code_as_monitor.agent.drive import drive
+    from code_as_monitor.agent.monitor import build_monitor
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
+    from code_as_monitor.vlm.skills import skill_table
 
     wall0 = time.perf_counter()
     out = RunArtefacts(run_dir, cfg.camera_hz if cfg.video else None, on_event)
@@ -158,7 +162,8 @@ def run_closed_loop(
             if on_env is not None:
                 on_env(env)
             monitor = build_monitor(cfg.monitor_config(env.task.config.time_limit), on_event=out.emit,
-                                    on_frame=out.on_frame, on_prompt=out.on_prompt, backend=backend)
+                                    on_frame=out.on_frame, on_prompt=out.on_prompt, backend=backend,
+                                    skills=skill_table(env.policy.skills))
             episode = drive(monitor, env.instruction, env.world, env.policy, on_observation=on_observation)
             result = _settle_and_evaluate(env, episode.stop_reason)
             gt_events = list(env.world.events.events)

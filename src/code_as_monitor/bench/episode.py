@@ -142,6 +142,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
     from code_as_monitor.sim.world import WorldConfig
     from code_as_monitor.viz.video import FrameComposer, VideoWriter
     from code_as_monitor.vlm import VLMBackendConfig, make_backend
+    from code_as_monitor.vlm.skills import skill_table
 
     # Open-loop renders nothing of its own; its sample video is rendered at OPEN_LOOP_VIDEO_HZ only.
     fps = OPEN_LOOP_VIDEO_HZ if method == "open-loop" else opts.camera_hz
@@ -160,7 +161,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
             frames = 0
             if method == "open-loop":
                 usage_ep: dict[str, Any] = {"calls": 0, "prompt_tokens": 0, "completion_tokens": 0,
-                                            "total_tokens": 0, "calls_by_purpose": {}}
+                                            "total_tokens": 0, "calls_by_purpose": {}, "tokens_by_purpose": {}}
 
                 next_frame = [0.0]
 
@@ -173,7 +174,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
                 episode = agent.run(env.instruction, env.world, env.policy)
             else:
                 backend = make_backend(VLMBackendConfig.from_name(opts.backend, **opts.backend_options))
-                planner = ConstraintGenerator(backend)
+                planner = ConstraintGenerator(backend, skills=skill_table(env.policy.skills))
                 vqa = make_vqa(opts.backend, backend, planner.usage)
                 doremi = method == "doremi"
                 cfg = DoReMiConfig(k_s=opts.doremi_k_s) if doremi else InnerMonologueConfig()
@@ -237,7 +238,7 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
             success=bool(out["success"]), reason=str(out["reason"])[:200], sim_time_s=out["sim_time_s"],
             stop_reason=out["stop_reason"], replans=out["replans"], frames=out["frames"], images=out["images"],
             vlm={k: vlm.get(k, 0) for k in ("calls", "prompt_tokens", "completion_tokens", "total_tokens",
-                                             "calls_by_purpose")},
+                                             "calls_by_purpose", "tokens_by_purpose")},
             alarms=_alarms(out["alarms"], cfs.results), gt=_compact_gt(out["gt"]), error=None,
         )
     except Exception as exc:  # recorded, not raised: one broken cell must not stop a sweep
@@ -245,7 +246,7 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
         rec.update(success=False, reason="error", sim_time_s=None, stop_reason="error", replans=0, frames=None,
                    images=None,
                    vlm={"calls": 0, "prompt_tokens": 0, "completion_tokens": 0, "total_tokens": 0,
-                        "calls_by_purpose": {}}, alarms=[], gt=[],
+                        "calls_by_purpose": {}, "tokens_by_purpose": {}}, alarms=[], gt=[],
                    error=f"{type(exc).__name__}: {exc}"[:300], traceback=traceback.format_exc()[-1500:])
     rec["wall_time_s"] = round(time.perf_counter() - wall0, 3)
     rec["cpu_time_s"] = round(_cpu_seconds() - cpu0, 3)

@@ -28,8 +28,8 @@ def replay_bag(source: Any, instruction: str, config: Any, run_dir: Path | None 
     from ``config`` (:class:`~code_as_monitor.agent.config.MonitorConfig`); returns the summary (also
     ``run_dir/summary.json``). An exception still writes the summary (outcome ``error`` /
     ``interrupted``) and is re-raised."""
-    from code_as_monitor.agent.config import build_monitor
     from code_as_monitor.agent.decision import DecisionKind
+    from code_as_monitor.agent.monitor import build_monitor
 
     if rate not in RATES:
         raise ConfigError(f"rate must be one of {', '.join(RATES)}, got {rate!r}")

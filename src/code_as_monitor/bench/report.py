@@ -144,6 +144,14 @@ def wall_time(lines: list[dict[str, Any]]) -> float:
     return total
 
 
+def _token_ratio(cam: dict[str, Any] | None, doremi: dict[str, Any] | None) -> str:
+    """CaM's mean tokens per episode over DoReMi's, ``"0.62x"`` ("—" without both or with no DoReMi tokens)."""
+    if cam is None or doremi is None:
+        return "—"
+    a, b = float(cam["cost"]["tokens"]), float(doremi["cost"]["tokens"])
+    return f"{a / b:.2f}x" if math.isfinite(a) and math.isfinite(b) and b > 0 else "—"
+
+
 def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     """The Markdown tables (ours; the paper's beside it; cost; detection)."""
     ms, cs, cells = summary["methods"], summary["conditions"], summary["cells"]
@@ -176,14 +184,19 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
             row = [c.label] + [f"{p[m][0]:.2f} ± {p[m][1]:.2f}" if m in p else "—" for m in METHODS]
             row += [f"{p[m][2]:.2f} ± {p[m][3]:.2f}" if m in p and p[m][2] is not None else "—" for m in METHODS[1:]]
             out.append("| " + " | ".join(row) + " |")
-    out += ["", "VLM calls / tokens per episode, wall seconds per episode:", "",
-            "| Condition | " + " | ".join(HEADERS[m] for m in ms) + " |", "|---|" + "---|" * len(ms)]
+    ratio = "cam" in ms and "doremi" in ms  # the token ratio the paper reports (CaM against DoReMi)
+    out += ["", "VLM calls / tokens per episode, wall seconds per episode"
+            + (" (tokens: estimates offline; last column CaM / DoReMi tokens):" if ratio else ":"), "",
+            "| Condition | " + " | ".join(HEADERS[m] for m in ms) + (" | CaM / DoReMi tokens |" if ratio else " |"),
+            "|---|" + "---|" * (len(ms) + ratio)]
     for c in cs:
         row = [c.label]
         for m in ms:
             k = cells.get((c.id, m))
             row.append("—" if k is None else f"{_f(k['cost']['calls'])} / {_f(k['cost']['tokens'], 0)} / "
                        f"{_f(k['cost']['wall_s'])} s")
+        if ratio:
+            row.append(_token_ratio(cells.get((c.id, "cam")), cells.get((c.id, "doremi"))))
         out.append("| " + " | ".join(row) + " |")
     if checking:
         out += ["", "Detection (ours, against the simulator's ground truth): recall (detected/failures), median "

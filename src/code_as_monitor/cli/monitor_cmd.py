@@ -62,7 +62,8 @@ def prepare(args: argparse.Namespace) -> tuple[Any, Any, str, Any]:
         segmenter = "sim" if all(v.seg for v in source.map.views.values()) else "color"
     cfg = MonitorConfig(backend=args.backend, backend_options=backend_options_from_args(args), segmenter=segmenter,
                         tracker=args.tracker, frame_hz=args.camera_hz, max_replans=args.max_replans,
-                        deadline_s=args.deadline, time_limit_s=source.metadata.get("time_limit_s"))
+                        deadline_s=args.deadline, time_limit_s=source.metadata.get("time_limit_s"),
+                        allow_unconfined=args.allow_unconfined)
     cfg.check()
     backend = make_backend(VLMBackendConfig.from_name(cfg.backend, **cfg.backend_options))
     return source, cfg, instruction, backend

@@ -64,6 +64,9 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
                    help="seconds all checks of one frame may take in the sandbox before that frame is a fault "
                         "(default 0.02, a real-time budget; the benchmark uses 0.5: in the simulator time waits "
                         "for the monitor, and a tight wall-clock budget makes results depend on the machine's load)")
+    p.add_argument("--allow-unconfined", action="store_true",
+                   help="run generated monitor code even where the sandbox cannot install its kernel confinement "
+                        "(seccomp, no_new_privs, namespaces); without it such a machine refuses, saying why")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
     p.add_argument("--rerun", nargs="?", const="save", default=None, choices=("save", "spawn", "connect"),
                    help="live 3-D view with rerun-sdk (the [rerun] extra): save run.rrd in the run dir (default), "
@@ -127,7 +130,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         task=task, seed=default_seed if args.seed is None else args.seed, task_params=params,
         backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
         tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
-        max_replans=args.max_replans, deadline_s=args.deadline,
+        max_replans=args.max_replans, deadline_s=args.deadline, allow_unconfined=args.allow_unconfined,
     )
 
 

@@ -36,7 +36,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def list_tasks() -> str:
     import dataclasses
 
-    from code_as_monitor.sim.tasks.base import TaskConfig, task_names
+    from code_as_monitor.sim.tasks import TaskConfig, task_names
 
     lines = []
     for name in task_names():

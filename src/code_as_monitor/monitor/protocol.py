@@ -30,7 +30,9 @@ NOTES_MAX = 2000
 """Characters of a load error or a confinement note kept."""
 
 _ADDRESS = re.compile(r"0x[0-9a-fA-F]{5,}")
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]+")
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u200b-\u200f\u2028-\u202e\u2060-\u2069\ufeff]+")
+"""C0/C1 controls, Unicode line and paragraph separators, zero-width and bidirectional-override characters:
+what could break a log line or make it read differently from what it holds."""
 
 _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
@@ -47,7 +49,8 @@ class ReplyError(ValueError):
 
 
 def clean_text(text: str, limit: int = REASON_MAX) -> str:
-    """What the control process keeps of a worker's text: no control characters, no object addresses
+    """What the control process keeps of a worker's text: no control, line-separator, zero-width or bidi
+    characters (each run becomes a space), no object addresses
     (``0x7f...`` becomes ``0x?``), at most ``limit`` characters."""
     text = _CONTROL.sub(" ", text)
     text = _ADDRESS.sub("0x?", text)

@@ -1,5 +1,9 @@
 """The monitor coder: subgoal, constraints, annotated views and the element legend -> program source.
 
+The request says each thing once (compact JSON: constraints refer to elements by id, the legend is one short
+array per element) and the annotated views go at the cheapest detail that keeps their pixels. A request that
+comes again word for word (a re-planned subgoal) reuses the program already accepted for it, re-checked.
+
 The answer's code fences are stripped, the source must parse, and then the caller's ``check``
 (static validation and path coverage, from the monitor package) must accept it. A rejected program
 is sent back with the error up to ``max_retries`` times, then
@@ -25,7 +29,7 @@ from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
-from code_as_monitor.vlm.messages import Message
+from code_as_monitor.vlm.messages import Message, TextPart, view_parts
 from code_as_monitor.vlm.parsing import dump_request, strip_code_fences
 from code_as_monitor.vlm.schemas import program_json_schema
 from code_as_monitor.vlm.templates import PROMPT_VERSION, render
@@ -124,19 +128,26 @@ def basic_check(constraint_ids: Iterable[str]) -> ProgramCheck:
     return check
 
 
-def _legend_lines(elements: list[Element]) -> str:
-    return "\n".join(
-        f"- {e.id}: {e.kind.value}, {e.name}, owner {e.owner[0]}/{e.owner[1] or '(whole)'}" for e in elements
-    )
+def owner_text(owner: tuple[str, str]) -> str:
+    """``"object/part"`` (``"object"`` for a whole object): how the coder request names an element's owner."""
+    return f"{owner[0]}/{owner[1]}" if owner[1] else owner[0]
 
 
-def _constraint_lines(subgoal: Subgoal, ids: dict[str, list[int]]) -> str:
-    lines = []
-    for c in subgoal.constraints:
-        kind = "proactive" if c.proactive else "reactive"
-        thr = json.dumps(c.thresholds, sort_keys=True)
-        lines.append(f"- {c.id} [{c.phase.value}, {kind}]: {c.text} | elements {ids[c.id]} | thresholds {thr}")
-    return "\n".join(lines)
+def coder_request(subgoal: Subgoal, elements: list[Element], feedback: str | None = None) -> dict:
+    """The coder's request: the subgoal, its action, each constraint with the ids of its parts' elements (the
+    parts themselves are not repeated: the legend says what each element is), the compact legend
+    ``[id, kind, "object/part", name]`` and, after a rejection, why."""
+    ids = resolve_element_ids(subgoal, elements)
+    request: dict = {
+        "subgoal": subgoal.text,
+        "action": subgoal.action.to_dict() if subgoal.action else None,
+        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "proactive": c.proactive,
+                         "thresholds": dict(c.thresholds), "element_ids": ids[c.id]} for c in subgoal.constraints],
+        "elements": [[e.id, e.kind.value, owner_text(e.owner), e.name] for e in elements],
+    }
+    if feedback:
+        request["feedback"] = feedback
+    return request
 
 
 class MonitorCoder:
@@ -146,42 +157,36 @@ class MonitorCoder:
         backend: any VLM backend.
         usage: meter to count calls and tokens in (a fresh one when None).
         prompt_version: version of the prompt template files.
+        reuse: keep each accepted program under its request (:func:`coder_request`: subgoal, action,
+            constraints with thresholds and element ids, legend) and, when the same request comes again (a
+            subgoal re-planned word for word after a failure), run ``check`` on the kept program before asking
+            the model; the program reads only the elements, so the same request needs the same program. A kept
+            program that ``check`` now rejects is dropped and the model is asked as usual.
     """
 
     def __init__(self, backend: VLMBackend, *, usage: UsageMeter | None = None,
-                 prompt_version: str = PROMPT_VERSION) -> None:
+                 prompt_version: str = PROMPT_VERSION, reuse: bool = True) -> None:
         self.backend = backend
         self.usage = usage if usage is not None else UsageMeter()
         self.prompt_version = prompt_version
+        self.reuse = reuse
+        self.reused = 0
+        """Programs taken from the kept ones (no model call)."""
+        self._kept: dict[str, str] = {}
         self.last_messages: list[Message] = []
         self.last_response: VLMResponse | None = None
 
     def build_messages(self, subgoal: Subgoal, elements: list[Element], annotated_images: dict[str, np.ndarray],
                        feedback: str | None = None) -> list[Message]:
-        """System and user messages (the user message carries a ```json request block)."""
+        """System and user messages: the user message carries the ```json request block (:func:`coder_request`)
+        and the annotated views without losing a pixel (:func:`view_parts`: stacked into one low-detail image when
+        they fit in 512 x 512, else each at the cheapest lossless detail), so the labels stay as legible as drawn."""
         if not subgoal.constraints:
             raise ConfigError(f"subgoal {subgoal.text!r} has no constraints to monitor")
-        ids = resolve_element_ids(subgoal, elements)
-        request = {
-            "subgoal": subgoal.text,
-            "action": subgoal.action.to_dict() if subgoal.action else None,
-            "constraints": [{**c.to_dict(), "element_ids": ids[c.id]} for c in subgoal.constraints],
-            "elements": [
-                {"id": e.id, "kind": e.kind.value, "name": e.name, "owner": list(e.owner)} for e in elements
-            ],
-            "feedback": feedback,
-        }
-        fb = f"\nA previous program for this subgoal was rejected: {feedback}\n" if feedback else ""
-        user = render(
-            "monitor_coder_user", self.prompt_version,
-            subgoal=subgoal.text,
-            constraints=_constraint_lines(subgoal, ids),
-            legend=_legend_lines(elements),
-            feedback=fb,
-            request=dump_request(request),
-        )
+        request = coder_request(subgoal, elements, feedback)
+        user = render("monitor_coder_user", self.prompt_version, request=dump_request(request))
         system = render("monitor_coder", self.prompt_version)
-        return [Message.system(system), Message.user(user, annotated_images)]
+        return [Message.system(system), Message("user", [TextPart(user), *view_parts(annotated_images)])]
 
     def write_program(
         self,
@@ -201,6 +206,17 @@ class MonitorCoder:
         Raises:
             VLMOutputError: nothing acceptable after ``1 + max_retries`` calls.
         """
+        key = dump_request(coder_request(subgoal, elements)) if self.reuse and not feedback else None
+        kept = self._kept.get(key) if key is not None else None
+        if kept is not None:
+            try:
+                check(kept)
+            except ProgramError as exc:
+                log.info("monitor coder: the kept program no longer passes (%s); asking the model", exc)
+                del self._kept[key]
+            else:
+                self.reused += 1
+                return kept
         messages = self.build_messages(subgoal, elements, annotated_images, feedback)
         last_error = ""
         request = messages
@@ -223,6 +239,8 @@ class MonitorCoder:
                 # the original request, the last answer and its error: not the growing conversation
                 request = [*messages, Message.assistant(resp.text), Message.user(repair)]
                 continue
+            if key is not None:
+                self._kept[key] = source
             return source
         raise VLMOutputError(
             f"monitor coder: no acceptable program after {1 + max(0, max_retries)} attempt(s); last problem: "

@@ -1,10 +1,13 @@
 """The constraint generator (paper eq. 1): next subgoal and its during/upon constraints from a VLM backend.
 
 Inputs are the images of every view, the global instruction, the previous subgoal and the monitor's
-feedback; the answer is the JSON of :mod:`code_as_monitor.vlm.schemas` (its JSON schema goes to the backend
-for servers with structured outputs), validated with pydantic. An invalid answer is sent back with the
-validation error up to ``max_retries`` times (each re-ask carries the original request, the last answer and
-its error, not the whole conversation), then :class:`~code_as_monitor.core.errors.VLMOutputError` is raised.
+feedback, sent once each: the user message is one compact JSON request and the views, stacked into one image
+scaled down to fit the low-detail view (512 x 512) and sent at detail "low" (85 tokens on GPT-4o): the planner
+needs the scene's layout, not fine detail. The answer is the JSON of :mod:`code_as_monitor.vlm.schemas` (its
+JSON schema goes to the backend for servers with structured outputs), validated with pydantic. An invalid
+answer is sent back with the validation error up to ``max_retries`` times (each re-ask carries the original
+request, the last answer and its error, not the whole conversation), then
+:class:`~code_as_monitor.core.errors.VLMOutputError` is raised.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.errors import ConfigError, VLMOutputError
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
-from code_as_monitor.vlm.messages import Message
+from code_as_monitor.vlm.messages import Message, TextPart, view_parts
 from code_as_monitor.vlm.parsing import dump_request, extract_json
 from code_as_monitor.vlm.schemas import (
     ALWAYS_PRESENT,
@@ -39,14 +42,12 @@ __all__ = ["PURPOSE", "SUCCESS_FEEDBACK", "ConstraintGenerator"]
 
 
 def _previous_dict(previous: Subgoal | None) -> dict | None:
+    """The previous subgoal as the request gives it (its constraints are not repeated: the feedback names the
+    one that stopped it and why)."""
     if previous is None:
         return None
-    return {
-        "text": previous.text,
-        "action": previous.action.to_dict() if previous.action else None,
-        "done": previous.done,
-        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value} for c in previous.constraints],
-    }
+    return {"text": previous.text, "action": previous.action.to_dict() if previous.action else None,
+            "done": previous.done}
 
 
 class ConstraintGenerator:
@@ -88,25 +89,18 @@ class ConstraintGenerator:
         previous: Subgoal | None,
         feedback: str | None,
     ) -> list[Message]:
-        """The system and user messages of one request (the user message carries a ```json request block)."""
+        """The system and user messages of one request (the user message carries a ```json request block and
+        the views, scaled down: :func:`view_parts` with ``downscale``, one low-detail image for all views)."""
         request = {
             "instruction": instruction,
             "objects": list(objects),
             "previous_subgoal": _previous_dict(previous),
             "feedback": feedback,
-            "views": list(observation_images),
-            "skills": list(self.skills),
         }
         system = render("constraint_generator", self.prompt_version, skills=skills_markdown(self.skills))
-        user = render(
-            "constraint_generator_user",
-            self.prompt_version,
-            instruction=instruction,
-            previous=previous.text if previous is not None else "none (this is the first subgoal)",
-            feedback=feedback if feedback else "none",
-            request=dump_request(request),
-        )
-        return [Message.system(system), Message.user(user, observation_images)]
+        user = render("constraint_generator_user", self.prompt_version, request=dump_request(request))
+        views = view_parts(observation_images, downscale=True)
+        return [Message.system(system), Message("user", [TextPart(user), *views])]
 
     def next_subgoal(
         self,

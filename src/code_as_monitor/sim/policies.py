@@ -105,6 +105,12 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
     def done(self) -> bool:
         return self._gen is None
 
+    @property
+    def skills(self) -> tuple[str, ...]:
+        """The skills this robot can execute: those of its end-effector (what the planner is offered)."""
+        ee = self.world.robot.ee.kind
+        return tuple(name for name, (_, kind) in SKILLS.items() if kind == ee)
+
     # --- validation -----------------------------------------------------------------------------------------
     def validate(self, action: Action) -> None:
         if action.skill not in SKILLS:

@@ -102,7 +102,8 @@ class OpenAIBackendConfig(VLMBackendConfig):
             a server's ``Retry-After`` header wins when present (also capped).
         temperature, max_tokens: sampling settings (``max_tokens`` plus the prompt must fit the server's
             context).
-        image_detail: "low", "high" or "auto" for image parts.
+        image_detail: "low", "high" or "auto" for image parts that do not carry their own (the planner sends its
+            views at "low", the coder its annotated views at "low" when they fit in 512 x 512).
         images: send images (False for a text-only model: the prompts go without their images).
         structured: the answer format asked of the server: "auto" (the JSON schema as ``response_format``
             json_schema, falling back to json_object + schema and then to prompt-only JSON when the server

@@ -185,4 +185,5 @@ class OpenAIBackend:
         usage = answer.usage
         if usage is not None and getattr(usage, "prompt_tokens", None) is not None:
             return VLMResponse(text, int(usage.prompt_tokens), int(usage.completion_tokens or 0), model)
-        return VLMResponse(text, estimate_prompt_tokens(messages), estimate_tokens(text), model, estimated=True)
+        prompt = estimate_prompt_tokens(messages, self.config.image_detail, self.config.images)
+        return VLMResponse(text, prompt, estimate_tokens(text), model, estimated=True)

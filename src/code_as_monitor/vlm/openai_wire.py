@@ -25,7 +25,8 @@ def png_data_url(image: ImagePart) -> str:
 
 def to_openai_messages(messages: list[Message], detail: str = "auto", images: bool = True) -> list[dict[str, Any]]:
     """Chat-completions message dicts; a text-only message (or every message, ``images=False``) becomes a plain
-    string content. Without images, the image's label stays in the text as "(image <label> not sent)"."""
+    string content. Without images, the image's label stays in the text as "(image <label> not sent)". Each
+    image goes at its own detail, else at ``detail``."""
     out: list[dict[str, Any]] = []
     for m in messages:
         if not m.images:
@@ -39,7 +40,7 @@ def to_openai_messages(messages: list[Message], detail: str = "auto", images: bo
         parts: list[dict[str, Any]] = []
         for p in m.content:
             if isinstance(p, ImagePart):
-                parts.append({"type": "image_url", "image_url": {"url": png_data_url(p), "detail": detail}})
+                parts.append({"type": "image_url", "image_url": {"url": png_data_url(p), "detail": p.detail or detail}})
             else:
                 parts.append({"type": "text", "text": p.text})
         out.append({"role": m.role, "content": parts})

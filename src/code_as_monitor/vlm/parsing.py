@@ -69,5 +69,6 @@ def extract_request(text: str, tag: str = "request") -> dict[str, Any] | None:
 
 
 def dump_request(request: dict[str, Any], tag: str = "request") -> str:
-    """Render ``request`` as the fenced block :func:`extract_request` reads back (stable key order)."""
-    return f"```json {tag}\n{json.dumps(request, indent=2, sort_keys=True)}\n```"
+    """Render ``request`` as the fenced block :func:`extract_request` reads back: compact JSON (no
+    whitespace between tokens) in the request's own key order."""
+    return f"```json {tag}\n{json.dumps(request, separators=(',', ':'))}\n```"

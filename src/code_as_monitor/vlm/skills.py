@@ -1,10 +1,15 @@
 """The skills a policy offers, as the constraint generator is told about them.
 
-These are the simulator's skills (see ``docs/architecture.md``); a real robot passes its own table to
-:class:`~code_as_monitor.planning.generator.ConstraintGenerator`.
+These are the simulator's skills (see ``docs/architecture.md``); a simulated episode offers the planner only
+those its robot's end-effector can execute (:func:`skill_table` of the policy's ``skills``). A real robot
+passes its own table to :class:`~code_as_monitor.planning.generator.ConstraintGenerator`.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterable
+
+from code_as_monitor.core.errors import ConfigError
 
 DEFAULT_SKILLS: dict[str, str] = {
     "pick": 'args {"obj": name}: approach above the object, descend to contact, suction on, lift to carry height',
@@ -63,3 +68,18 @@ DEFAULT_SKILLS: dict[str, str] = {
 def skills_markdown(skills: dict[str, str]) -> str:
     """The skills as a Markdown bullet list for the prompt."""
     return "\n".join(f"- `{name}`: {doc}" for name, doc in skills.items())
+
+
+def skill_table(names: Iterable[str] | None) -> dict[str, str]:
+    """The entries of :data:`DEFAULT_SKILLS` for ``names`` (the skills a policy offers), in their order; all
+    of them when ``names`` is None. ConfigError naming an unknown skill."""
+    if names is None:
+        return dict(DEFAULT_SKILLS)
+    table = {}
+    for n in names:
+        if n not in DEFAULT_SKILLS:
+            raise ConfigError(f"unknown skill {n!r}; known: {', '.join(DEFAULT_SKILLS)}")
+        table[n] = DEFAULT_SKILLS[n]
+    if not table:
+        raise ConfigError("a policy must offer at least one skill")
+    return table

@@ -12,11 +12,40 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.vlm.backend import VLMResponse
-from code_as_monitor.vlm.messages import Message
+from code_as_monitor.vlm.messages import DETAILS, Message
 
-TOKENS_PER_IMAGE_ESTIMATE = 765
-"""A 1024x1024 image at detail "high" costs 765 prompt tokens on GPT-4o (85 base + 4 tiles x 170)."""
+LOW_DETAIL_TOKENS = 85
+"""An image sent at detail "low" (the model sees it within 512 x 512): a fixed 85 tokens."""
+TILE_TOKENS = 170
+"""Each 512-px tile of an image sent at detail "high", on top of :data:`LOW_DETAIL_TOKENS`."""
+TILE_PX = 512
+
+
+def image_tokens(width: int, height: int, detail: str = "auto") -> int:
+    """Estimated prompt tokens of one ``width x height`` image sent at ``detail`` (GPT-4o's published tile rule).
+
+    ``low``: 85. ``high``: the image is scaled down (never up) to fit 2048 x 2048, then down so that its
+    shorter side is at most 768 px; each 512-px tile of the result costs 170, plus 85 (a 1024 x 1024 image:
+    765; 320 x 240: one tile, 255). ``auto`` lets the server choose; it is estimated as ``high`` (an upper
+    bound). OpenAI's wording ("scaled such that the shortest side is 768px") can also be read as scaling
+    small images up, which would cost 765 for 320 x 240; the calculators that follow its pricing page, and
+    this estimate, do not scale up.
+    """
+    if detail not in DETAILS:
+        raise ConfigError(f"image detail must be one of {', '.join(DETAILS)}, got {detail!r}")
+    if width <= 0 or height <= 0:
+        raise ConfigError(f"image size must be positive, got {width}x{height}")
+    if detail == "low":
+        return LOW_DETAIL_TOKENS
+    w, h = float(width), float(height)
+    s = min(1.0, 2048.0 / max(w, h))
+    w, h = w * s, h * s
+    s = min(1.0, 768.0 / min(w, h))
+    w, h = w * s, h * s
+    tiles = math.ceil(round(w, 6) / TILE_PX) * math.ceil(round(h, 6) / TILE_PX)
+    return LOW_DETAIL_TOKENS + TILE_TOKENS * tiles
 
 
 def estimate_tokens(text: str) -> int:
@@ -24,11 +53,16 @@ def estimate_tokens(text: str) -> int:
     return math.ceil(len(text) / 4.0) if text else 0
 
 
-def estimate_prompt_tokens(messages: list[Message]) -> int:
-    """Rough prompt-token count of ``messages`` (text by length, each image at a fixed estimate)."""
+def estimate_prompt_tokens(messages: list[Message], detail: str = "auto", images: bool = True) -> int:
+    """Rough prompt-token count of ``messages``: 4 per message, text by length, each image by
+    :func:`image_tokens` for its size and detail (its own, else ``detail``; none when ``images`` is False)."""
     total = 0
     for m in messages:
-        total += 4 + estimate_tokens(m.text) + TOKENS_PER_IMAGE_ESTIMATE * len(m.images)
+        total += 4 + estimate_tokens(m.text)
+        if images:
+            for im in m.images:
+                h, w = im.rgb.shape[:2]
+                total += image_tokens(w, h, im.detail or detail)
     return total
 
 
@@ -58,14 +92,17 @@ class UsageRecord:
 
 def _sum(records: list[UsageRecord]) -> dict[str, Any]:
     by_purpose: dict[str, int] = {}
+    tokens_by_purpose: dict[str, int] = {}
     for r in records:
         by_purpose[r.purpose] = by_purpose.get(r.purpose, 0) + 1
+        tokens_by_purpose[r.purpose] = tokens_by_purpose.get(r.purpose, 0) + r.prompt_tokens + r.completion_tokens
     return {
         "calls": len(records),
         "prompt_tokens": sum(r.prompt_tokens for r in records),
         "completion_tokens": sum(r.completion_tokens for r in records),
         "total_tokens": sum(r.prompt_tokens + r.completion_tokens for r in records),
         "calls_by_purpose": dict(sorted(by_purpose.items())),
+        "tokens_by_purpose": dict(sorted(tokens_by_purpose.items())),
         "latency_s": round(sum(r.latency_s for r in records), 6),
         "estimated": any(r.estimated for r in records),
     }

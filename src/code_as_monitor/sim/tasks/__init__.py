@@ -9,6 +9,12 @@ from code_as_monitor.sim.tasks import (  # noqa: F401
     stow_book,
     sweep_half,
 )
-from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult, task_names
+from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
+
+
+def task_names() -> list[str]:
+    """The registered task ids, sorted (this package registers every task when imported)."""
+    return TaskConfig.choices()
+
 
 __all__ = ["Task", "TaskConfig", "TaskResult", "task_names"]

@@ -112,9 +112,3 @@ class Task:
     def settle_after_plan(self) -> bool:
         """True when the open-loop episode ends once the plan is done (False: run to the time limit)."""
         return True
-
-
-def task_names() -> list[str]:
-    import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
-
-    return TaskConfig.choices()

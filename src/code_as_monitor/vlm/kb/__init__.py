@@ -45,7 +45,7 @@ class KBBackend:
         """Answer as a model would (``schema`` is not needed: the kb writes the formats the prompts ask for)."""
         request = find_request(messages)
         if purpose == "constraint_generator":
-            body = json.dumps(next_subgoal(request), indent=2)
+            body = json.dumps(next_subgoal(request), separators=(",", ":"))  # compact, as the prompt asks
             text = f"```json\n{body}\n```" if self.config.fenced else body
         elif purpose == "monitor_coder":
             body = write_program(request)

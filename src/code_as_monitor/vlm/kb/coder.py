@@ -27,18 +27,31 @@ def write_check(c: Spec) -> str:
     return all_templates()[template_key(c)](c)
 
 
+def legend(request: dict[str, Any]) -> dict[int, dict[str, str]]:
+    """Element id -> part ``{name, obj, part, kind}`` from the request's legend ``[id, kind, "object/part", name]``."""
+    out: dict[int, dict[str, str]] = {}
+    for row in request.get("elements") or []:
+        if not isinstance(row, list) or len(row) != 4:
+            raise VLMError(f"kb: legend entry {row!r} is not [id, kind, object/part, name]")
+        eid, kind, owner, name = row
+        obj, _, part = str(owner).partition("/")
+        out[int(eid)] = {"name": str(name), "obj": obj, "part": part, "kind": str(kind)}
+    return out
+
+
 def write_program(request: dict[str, Any]) -> str:
-    """Program source for a coder request ``{subgoal, constraints: [...with element_ids], elements}``."""
+    """Program source for a coder request ``{subgoal, constraints: [...with element_ids], elements}`` (each
+    constraint's parts are read back from the legend by its element ids). As the prompt asks, the program has
+    no comments but one line naming the kb as its author."""
     cons = request.get("constraints") or []
     if not cons:
         raise VLMError("kb: the coder request has no constraints")
-    chunks = [
-        f"# Monitor program for: {request.get('subgoal', '')}\n"
-        "# Written by the kb (rule-based templates, not a VLM).\n"
-    ]
+    elements = legend(request)
+    chunks = ["# by the kb, a rule-based stand-in (not a VLM)\n"]
     for c in cons:
-        ids, parts = c.get("element_ids") or [], c.get("parts") or []
-        if len(ids) != len(parts):
-            raise VLMError(f"kb: constraint {c.get('id')!r} has {len(ids)} element ids for {len(parts)} parts")
-        chunks.append(write_check(c))
-    return "\n\n".join(chunks)
+        ids = c.get("element_ids") or []
+        missing = [i for i in ids if i not in elements]
+        if not ids or missing:
+            raise VLMError(f"kb: constraint {c.get('id')!r} refers to elements {missing or ids} not in the legend")
+        chunks.append(write_check({**c, "parts": [elements[i] for i in ids]}))
+    return "\n".join(chunks)
