@@ -50,7 +50,7 @@ def build_stages(config: MonitorConfig, on_frame: FrameFn | None = None, on_prom
     coder = MonitorCoder(backend, usage=generator.usage)
     painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
     tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
-    runtime = MonitorRuntime(deadline_s=config.deadline_s)
+    runtime = MonitorRuntime(deadline_s=config.deadline_s, allow_unconfined=config.allow_unconfined or None)
     checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),
                           on_frame=on_frame, on_prompt=on_prompt)
     return MonitorStages(generator, checker, runtime)

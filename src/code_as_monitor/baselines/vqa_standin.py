@@ -147,13 +147,6 @@ class VQAStandin:
         bx = self._find(view, x)
         target = objs[1] if len(objs) > 1 else None
         bt = self._find(view, target) if target else None
-        if key == "clear":  # 2-D "on top of" in one image; an unseen block cannot be judged: yes
-            for o in objs[1:]:
-                bo = self._find(view, o) if bx is not None else None
-                if bo is not None and self._on(bo, bx):
-                    return VQAAnswer(False, f"{_nice(o)} rests on top of {_nice(x)}: it blocks the tower, "
-                                            f"clear it first")
-            return VQAAnswer(True, f"nothing is seen resting on top of {_nice(x)}")
         if key == "still":
             if bx is None:
                 return VQAAnswer(False, f"cannot see {_nice(x)} in the image; it may have been moved")

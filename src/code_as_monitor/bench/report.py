@@ -24,6 +24,7 @@ from typing import Any
 from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import CONDITIONS, METHODS
+from code_as_monitor.bench.record_check import check_episode_record
 from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
 from code_as_monitor.core.errors import RunError
@@ -73,6 +74,7 @@ def _check_records(path: str | Path, recs: list[dict[str, Any]]) -> None:
         if missing:
             raise RunError(f"results {path}: episode record {i + 1} ({r['condition']} {r['method']} s{r['seed']}"
                            f"e{r['episode']}) lacks {', '.join(missing)}")
+        check_episode_record(path, i + 1, r)
 
 
 def summarise(path: str | Path) -> dict[str, Any]:

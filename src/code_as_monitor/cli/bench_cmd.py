@@ -35,8 +35,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
                         "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam); instructions: goals set by "
                         "instructions other than the paper's (open-loop and cam)")
-    p.add_argument("--seeds", type=v.count(1), default=None, help="seeds per cell (default 5, quick 1)")
-    p.add_argument("--episodes", type=v.count(1), default=None, help="episodes per seed (default 12, quick 4)")
+    p.add_argument("--seeds", type=v.count(1, 1000), default=None, help="seeds per cell (default 5, quick 1)")
+    p.add_argument("--episodes", type=v.count(1, 1000), default=None, help="episodes per seed (default 12, quick 4)")
     p.add_argument("--methods", type=v.csv, default=None, help="comma list (default: all four)")
     p.add_argument("--conditions", type=v.csv, default=None, help="comma list of condition ids (default: all)")
     p.add_argument("--results", type=v.results_file, default=None,
@@ -48,12 +48,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="sample videos go here (seed 0, episode 0 of each cell)")
     p.add_argument("--no-videos", action="store_true", help="record no sample videos")
     p.add_argument("--executor", default="local", help="local (process pool, default) or ray")
-    p.add_argument("--workers", type=v.count(0), default=0, help="episodes at once (default: one per CPU)")
+    p.add_argument("--workers", type=v.count(0, 1024), default=0, help="episodes at once (default: one per CPU)")
     p.add_argument("--ray-address", default=None, help="existing Ray cluster (default: a local instance)")
     p.add_argument("--backend", default="kb", help="VLM backend: kb (offline stand-in) or openai")
     p.add_argument("--backend-options", type=v.json_object, default={}, help="JSON object of backend options")
     add_server_options(p)
-    p.add_argument("--doremi-k", type=v.positive, default=1.0, help="seconds between DoReMi's VQA checks (default 1)")
+    p.add_argument("--doremi-k", type=v.number(0.0, 3600.0, lo_open=True), default=1.0,
+                   help="seconds between DoReMi's VQA checks (default 1)")
     p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle, default), lk, depth; recorded in "
                    "every result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
@@ -96,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     ex_kw: dict = {"workers": args.workers}
     if args.executor == "ray":
         ex_kw["address"] = args.ray_address
-    elif args.ray_address:
+    elif args.ray_address is not None:
         raise ConfigError("--ray-address needs --executor ray")
     executor = ExecutorConfig.from_name(args.executor, **ex_kw)
     if args.executor == "ray":

@@ -52,7 +52,11 @@ def prepare(args: argparse.Namespace) -> tuple[Any, Any, str, Any]:
 
     require("rosbags", "ros")
     topics = TopicMap.load(args.topics) if args.topics is not None else None
-    objects = [o.strip() for o in args.objects.split(",") if o.strip()] if args.objects else None
+    if args.instruction is not None and not args.instruction.strip():
+        raise ConfigError("--instruction is empty")
+    objects = [o.strip() for o in args.objects.split(",") if o.strip()] if args.objects is not None else None
+    if objects == []:
+        raise ConfigError(f"--objects expects comma-separated object names, got {args.objects!r}")
     source = BagSource(args.bag, topics=topics, objects=objects)
     instruction = args.instruction or source.metadata.get("instruction")
     if not instruction:
@@ -62,7 +66,8 @@ def prepare(args: argparse.Namespace) -> tuple[Any, Any, str, Any]:
         segmenter = "sim" if all(v.seg for v in source.map.views.values()) else "color"
     cfg = MonitorConfig(backend=args.backend, backend_options=backend_options_from_args(args), segmenter=segmenter,
                         tracker=args.tracker, frame_hz=args.camera_hz, max_replans=args.max_replans,
-                        deadline_s=args.deadline, time_limit_s=source.metadata.get("time_limit_s"))
+                        deadline_s=args.deadline, time_limit_s=source.metadata.get("time_limit_s"),
+                        allow_unconfined=args.allow_unconfined)
     cfg.check()
     backend = make_backend(VLMBackendConfig.from_name(cfg.backend, **cfg.backend_options))
     return source, cfg, instruction, backend

@@ -55,11 +55,6 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     "released": {"release_dist": 0.04},
     # place_on, during: lower levels of the tower stay stacked (reactive collapse detection).
     "tower": {"max_offset": 0.025, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
-    # pick, during: nothing rests on the block to pick or on the block it goes on. A collapse can leave one
-    # block lying on another (a suction cup then takes the top one; a block cannot land on an occupied
-    # target). "Rests on": centres less than 3/4 of a block apart horizontally (the faces overlap) and the
-    # other 0.5 ... 1.5 block sizes higher.
-    "clear": {"max_offset": 0.75 * BLOCK_SIZE, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
 }
 
 
@@ -68,19 +63,9 @@ def _thr(kind: str) -> dict[str, float]:
 
 
 # --- constraint builders -----------------------------------------------------------------------------------
-def pick(obj: str, clear: tuple[str, ...] = (), others: tuple[str, ...] = ()) -> list[dict[str, Any]]:
-    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began; during,
-    no block of ``others`` rests on any block of ``clear`` (the block to pick and the one it will go on)."""
-    out = [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup")]
-    cl = _thr("clear")
-    for x in clear:
-        rest = [o for o in others if o != x]
-        if rest:
-            out.append(constraint(
-                f"clear_{x}", f"nothing rests on top of {nice(x)} (no other block within "
-                f"{cl['max_offset'] * 100:.0f} cm horizontally and one block higher); a block on it must be "
-                f"cleared before stacking", "during", True, cl, [whole(x)] + [whole(o) for o in rest]))
-    return out
+def pick(obj: str) -> list[dict[str, Any]]:
+    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began."""
+    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup")]
 
 
 def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -223,37 +208,10 @@ def tower(c: Spec) -> str:
     return check_fn(c, body)
 
 
-def clear(c: Spec) -> str:
-    x, others = c["element_ids"][0], c["element_ids"][1:]
-    th, xn = c["thresholds"], obj_name(c, 0)
-    mo, lo, hi = num(th["max_offset"]), num(th["min_dz"]), num(th["max_dz"])
-    lines = ["margin = 1.0"]
-    for k, o in enumerate(others, start=1):
-        on = obj_name(c, k)
-        lines += [
-            f"off = horizontal_distance(E[{o}], E[{x}])",
-            f"dz = centroid(E[{o}])[2] - centroid(E[{x}])[2]",
-            f"m = np.max([off - {mo}, {lo} - dz, dz - {hi}])",
-            "if m < 0:",
-            f"    return False, {lit(on + ' rests on top of ' + xn + ' (offset %.3f m): it blocks the tower, clear it first')} % off, m",
-            "margin = np.min([margin, m])",
-        ]
-    lines.append(f"return True, {lit('nothing rests on top of ' + xn)}, margin")
-    return check_fn(c, "\n".join(lines))
-
-
 # --- the rule ----------------------------------------------------------------------------------------------
 def _pick(task: StackGoal, level: int, why: str) -> dict[str, Any]:
     obj = task.tower[level]
-    cons = pick(obj, (obj, task.tower[level - 1]), task.tower)
-    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, cons, why)
-
-
-def _clear_pick(task: StackGoal, blocker: str, level: int, why: str) -> dict[str, Any]:
-    """Pick ``blocker`` off the block it rests on, to set it aside and rebuild from ``level``."""
-    nxt = task.tower[level]
-    return answer(f"pick up {nice(blocker)} to clear the tower, then rebuild from {nice(nxt)}", "pick",
-                  {"obj": blocker}, pick(blocker, (blocker,), task.tower), why)
+    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, pick(obj), why)
 
 
 def _place(task: StackGoal, level: int, why: str) -> dict[str, Any]:
@@ -297,27 +255,12 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
         named = mentioned((previous or {}).get("text"), tower)
         level = tower.index(named[-1]) if named and named[-1] != obj else _restart_level(task, feedback)
         return _pick(task, max(1, level), f"{obj} is out of the way; rebuild from {tower[max(1, level)]}")
-    if not previous or skill not in ("pick", "place_on") or obj not in tower:
+    if not previous or skill not in ("pick", "place_on") or obj not in tower[1:]:
         if previous and previous.get("done"):
             return done("the tower is complete")
         return _pick(task, 1, f"{tower[0]} is the base and stays on the table; the next level is {tower[1]}")
-    cat = classify(feedback)
-    if skill == "pick" and "to clear the tower" in str((previous or {}).get("text", "")):
-        named = mentioned((previous or {}).get("text"), tower)
-        restart = tower.index(named[-1]) if len(named) > 1 else 1
-        if cat == "success":
-            return _set_down(task, obj, max(1, restart), f"{obj} is off the tower; put it aside, then rebuild from "
-                                                         f"{tower[max(1, restart)]}")
-        if cat != "blocked":
-            return _clear_pick(task, obj, max(1, restart), f"{obj} is not held yet ({cat}); pick it again")
-    if cat == "blocked" and skill == "pick":
-        names = mentioned(feedback, tower)
-        if names:
-            return _clear_pick(task, names[0], max(1, tower.index(obj)) if obj in tower[1:] else 1,
-                               f"{names[0]} lies on a block the tower needs; take it off and set it aside first")
-    if obj not in tower[1:]:
-        return _pick(task, 1, f"{tower[0]} is the base and stays on the table; the next level is {tower[1]}")
     level = tower.index(obj)
+    cat = classify(feedback)
     if cat == "collapse":
         lowest = _restart_level(task, feedback)
         if skill == "place_on" and lowest != level:
@@ -357,7 +300,7 @@ FAMILY = TaskFamily(
     task_params=task_params,
     thresholds=THRESHOLDS,
     templates={"attached": attached, "still": still, "centred": centred, "resting": resting,
-               "released": released, "tower": tower, "clear": clear},
+               "released": released, "tower": tower},
     keywords=(("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
-              ("rests on", "resting"), ("released", "released"), ("still on", "tower"), ("rests on top", "clear")),
+              ("rests on", "resting"), ("released", "released"), ("still on", "tower")),
 )
