@@ -168,6 +168,9 @@ TABLE: list[tuple[str, str, Any]] = [
     ("tea", "pour half the tea into the cup", REFUSE),
     ("tea", "pour the tea onto the table", REFUSE),
     ("tea", "pour the tea into the pen holder", REFUSE),
+    ("tea", "pour the tea into the cup and then pour it back", REFUSE),
+    ("tea", "pour the tea into both cups", REFUSE),
+    ("pen", "put the pen in the holder then in the cup", REFUSE),
     # --- open-drawer ------------------------------------------------------------------------------------
     ("drawer", "open the drawer by pulling its handle", FIXED["drawer"]),
     ("drawer", "slide the drawer out", FIXED["drawer"]),

@@ -144,7 +144,7 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "open-drawer", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
     if "fully" in ins.modifiers:
         r.refuse(f"cannot open the drawer all the way (its {DRAWER_TRAVEL * 100:.0f} cm travel): the kb opens it "
                  f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm, so that a re-pull after a slip fits the rails "

@@ -97,7 +97,7 @@ def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "rope-close-square", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
     r.modifiers(("fully",), DOING)
     ropes = r.phrases(lambda p: p.head == "rope")
     targets = r.phrases(lambda p: p.head in ("opening", "square"))
