@@ -15,7 +15,7 @@ def test_conditions_are_the_paper_rows():
                                       "book-c", "tea-none", "tea-a", "tea-b", "tea-c", "drawer-none", "drawer-slip"]
     assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0", "pen-none", "book-none", "tea-none",
                                                            "drawer-none", "stack-reversed"]
-    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten"]
+    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten", "drawer-ten", "rope-half"]
     assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")
     assert BenchSpec().conditions == list(SUITES["cliport"])
     assert SUITE_DEFAULTS["table2"]["episodes"] == 10  # the paper's 10 runs per setting

@@ -6,7 +6,8 @@ placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. 
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
 (OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen, stow-book, pour-tea, plus open-drawer
 (articulated, the paper's RLBench kind of object). ``instructions``: conditions whose goal an instruction sets
-(a reversed tower, a two-block tower, 10 blocks swept), to run instructions end to end.
+(a reversed tower, a two-block tower, 10 blocks swept, a drawer opened 10 cm, half of the rope square's opening
+closed), to run instructions end to end.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -75,6 +76,10 @@ CONDITIONS: tuple[Condition, ...] = (
               "Stack two blocks, p=0.15 (instruction)", suite="instructions"),
     Condition("sweep-ten", "sweep-half", {"instruction": "push 10 blocks into the zone"},
               "Sweep 10 of 40 blocks, 9-11 accepted (instruction)", suite="instructions"),
+    Condition("drawer-ten", "open-drawer", {"instruction": "open the drawer 10 cm", "disturbance": "slip"},
+              "Open drawer 10 cm, grasp slips off the handle (instruction)", suite="instructions"),
+    Condition("rope-half", "rope-close-square", {"instruction": "close half of the opening with the rope"},
+              "Close half of the rope square's opening (instruction)", suite="instructions"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {

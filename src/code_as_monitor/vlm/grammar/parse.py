@@ -105,6 +105,8 @@ class _Parser:
         if np.quant == "all" and np.nums:  # "all 40 blocks", "all of the 40 blocks", "every one of the blocks"
             return Quantity("all", 1.0, bound, of_total=total if np.of_seen else np.nums[-1], text=words)
         before = np.nums[: np.nums_before_of] if np.of_seen else np.nums
+        if len(before) > 1 and bound != "between":
+            return Quantity("some", 0.0, "ambiguous", text=words)  # "10 12 blocks": no one count
         if before and (np.noun or np.colour or np.of_seen or np.det == "" or np.quant):
             high = before[1] if bound == "between" and len(before) > 1 else None
             return Quantity("number", before[0], bound, high=high, of_total=total, text=words)
@@ -188,7 +190,10 @@ class _Parser:
         np = self.np
         if np is not None and len(np.nums) == 1 and not (np.noun or np.colour or np.frac is not None):
             self.np = None
-            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join([*np.words, tok.text])))
+            bound, words = np.cmp or "plain", [*np.words, tok.text]
+            if self.prep is not None and self.prep[0] == "up_to":
+                bound, words = "at_most", [self.prep[2], *words]  # "up to 10 cm"
+            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join(words), bound))
             if self.prep is not None and self.prep[0] in ("by", "to", "up_to"):
                 self.prep = None  # "by 10 cm"
             return
@@ -256,6 +261,8 @@ class _Parser:
     # --- after the pass ------------------------------------------------------------------------------------
     def finish(self) -> None:
         ps = self.phrases
+        trailing = [w for w in self.seps.get(len(ps), []) if w in ("first", "then")]
+        self.stray.extend(trailing)  # "stack the blocks with blue first": an order word with nothing after it
         for p in ps:  # pronouns
             if p.pronoun:
                 want_plural = p.pronoun == "them"
