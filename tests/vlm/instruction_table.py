@@ -140,6 +140,7 @@ TABLE: list[tuple[str, str, Any]] = [
     ("rope", "put the rope into the square", REFUSE),
     ("rope", "stack the rope on the square", REFUSE),
     ("rope", "close at most half of the opening with the rope", REFUSE),
+    ("rope", "close half of half of the opening with the rope", REFUSE),
     ("rope", "close the opening with the rope and the cord", REFUSE),
     # --- slot-pen ---------------------------------------------------------------------------------------
     ("pen", "put the pen into the pen holder", FIXED["pen"]),

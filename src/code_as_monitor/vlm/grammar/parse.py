@@ -31,6 +31,7 @@ class _NP:
     cmp: str = ""
     nums: list[float] = field(default_factory=list)
     frac: float | None = None
+    fracs: int = 0  # fractions read: "half of half of the opening" has two (no one fraction)
     of_seen: bool = False
     nums_before_of: int = 0
     colour: str = ""
@@ -100,6 +101,8 @@ class _Parser:
             return Quantity("none", 0.0, bound, text=words)
         after_of = np.nums[np.nums_before_of:] if np.of_seen else []
         total = after_of[-1] if after_of else None
+        if np.fracs > 1:
+            return Quantity("some", 0.0, "ambiguous", text=words)  # "half of half of": no one fraction read
         if np.frac is not None:
             return Quantity("fraction", np.frac, bound, of_total=total, text=words)
         if np.quant == "all" and np.nums:  # "all 40 blocks", "all of the 40 blocks", "every one of the blocks"
@@ -139,6 +142,7 @@ class _Parser:
         elif tok.kind == "num":
             np.nums.append(float(tok.value))  # type: ignore[arg-type]
         elif tok.kind == "frac":
+            np.fracs += 1
             np.frac = float(tok.value)  # type: ignore[arg-type]
         elif tok.kind == "colour":
             np.colour = str(tok.value)
