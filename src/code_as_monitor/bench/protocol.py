@@ -9,7 +9,8 @@ undisturbed condition (false alarms are counted there). ``table2``: the paper's 
 "Performance in RLBench"): six tasks with four cameras and a noisy policy (the learned-policy analogue, no
 disturbance); a flagged episode is abandoned and another started until each cell has its valid episodes
 (:mod:`code_as_monitor.bench.restarts`). ``instructions``: conditions whose goal an instruction sets
-(a reversed tower, a two-block tower, 10 blocks swept), to run instructions end to end.
+(a reversed tower, a two-block tower, 10 blocks swept, a drawer opened 10 cm, half of the rope square's opening
+closed), to run instructions end to end.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -78,6 +79,10 @@ CONDITIONS: tuple[Condition, ...] = (
               "Stack two blocks, p=0.15 (instruction)", suite="instructions"),
     Condition("sweep-ten", "sweep-half", {"instruction": "push 10 blocks into the zone"},
               "Sweep 10 of 40 blocks, 9-11 accepted (instruction)", suite="instructions"),
+    Condition("drawer-ten", "open-drawer", {"instruction": "open the drawer 10 cm", "disturbance": "slip"},
+              "Open drawer 10 cm, grasp slips off the handle (instruction)", suite="instructions"),
+    Condition("rope-half", "rope-close-square", {"instruction": "close half of the opening with the rope"},
+              "Close half of the rope square's opening (instruction)", suite="instructions"),
     Condition("rlb-open-drawer", "open-drawer", {"noise": 1.0, "views": "rlbench"}, "Open drawer", undisturbed=True,
               suite="rlbench"),
     Condition("rlb-put-in-drawer", "put-in-drawer", {}, "Put in drawer", undisturbed=True, suite="rlbench"),

@@ -9,15 +9,16 @@ camera sees it over the cabinet while the gripper's hand hides it from the top c
 gripper; its closed grasp of a fixed-base body fixes the grasped LINK (the handle) to the tool, so moving
 the tool drags the drawer along its joint. The joint has damping and a weak friction motor, so the drawer
 stays where it is left.
-Plan: ``grasp`` the handle (jaws across the bar; no lift), ``pull`` the drawer ``PULL_DISTANCE`` along
-its axis, open the gripper and retreat.
+Plan: ``grasp`` the handle (jaws across the bar; no lift), ``pull`` the drawer ``min_open`` plus
+``PULL_MARGIN`` along its axis, open the gripper and retreat.
 
 Randomisation: the handle's centre at a distance [0.46, 0.54] m from the robot base at a bearing
 uniform in [-20, 20] degrees; the cabinet turned so that its front faces the robot base within
 +-15 degrees (the pull goes towards the base, so the fully pulled handle stays within reach).
 
-Success: the drawer is open by at least ``OPEN_MIN`` (15 cm, its joint position) and the gripper has
-let go of it (nothing holds the cabinet), within the time limit.
+Success: the drawer is open by at least ``min_open`` (config; default ``OPEN_MIN``, 15 cm; its joint
+position) and the gripper has let go of it (nothing holds the cabinet), within the time limit. An
+instruction sets ``min_open`` ("open the drawer 10 cm", "halfway": see the kb's drawer family).
 
 Disturbances (config ``disturbance``):
 ``none``; ``slip``: mid-pull (the first tick the gripper holds the handle and the drawer is open by a
@@ -46,7 +47,8 @@ from code_as_monitor.sim.triggered import Triggered
 
 OBJ = "drawer_cabinet"
 OPEN_MIN = 0.15  # metres: open by over half the 22 cm tray depth (assets/drawer_cabinet.urdf), enough to reach in
-PULL_DISTANCE = 0.17  # metres the scripted pull moves the grasp point: OPEN_MIN plus 2 cm for the soft grasp's lag
+PULL_MARGIN = 0.02  # metres the scripted pull goes past the opening asked for: the soft grasp's lag
+PULL_DISTANCE = OPEN_MIN + PULL_MARGIN  # metres the scripted pull moves the grasp point by default
 JOINT_LIMIT = 0.25  # metres, the prismatic joint's upper limit (assets/drawer_cabinet.urdf)
 HANDLE_OFFSET = 0.18  # handle centre ahead of the cabinet origin along local +x, closed: 0.13 + 0.015 + 0.035 m
 DRAWER_FRICTION = 0.5  # newtons: a 0.6 kg drawer on ball-bearing slides (friction coefficient below 0.1)
@@ -58,7 +60,7 @@ def drawer_open(opening: float, held: bool, min_open: float = OPEN_MIN) -> tuple
     """Is the drawer open and let go? ``opening``: its joint position (metres out of the frame);
     ``held``: the gripper still holds the cabinet (its handle)."""
     if opening < min_open:
-        return False, f"the drawer is open {opening * 100:.1f} cm, less than {min_open * 100:.0f} cm"
+        return False, f"the drawer is open {opening * 100:.1f} cm, less than {min_open * 100:.1f} cm"
     if held:
         return False, f"the drawer is open {opening * 100:.1f} cm but the gripper still holds the handle"
     return True, f"the drawer is open {opening * 100:.1f} cm and released"
@@ -67,18 +69,23 @@ def drawer_open(opening: float, held: bool, min_open: float = OPEN_MIN) -> tuple
 @TaskConfig.register("open-drawer")
 @dataclass
 class OpenDrawerConfig(TaskConfig):
-    """``disturbance``: none or slip (the grasp slips off the handle mid-pull). ``noise``: the policy's action
+    """``disturbance``: none or slip (the grasp slips off the handle mid-pull); ``min_open``: metres the
+    drawer must be open for success (0 < min_open <= JOINT_LIMIT - PULL_MARGIN). ``noise``: the policy's action
     noise (0, the default: the exact oracle of Table 2; 1: the RLBench suite's learned-policy analogue, see
     :mod:`code_as_monitor.sim.tasks.rlbench_base`); ``views``: ``default`` (front and top) or ``rlbench`` (the
     four RLBench cameras)."""
 
     time_limit: float = 60.0
     disturbance: str = "none"
+    min_open: float = OPEN_MIN
     noise: float = 0.0
     views: str = "default"
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        if not 0.0 < float(self.min_open) <= JOINT_LIMIT - PULL_MARGIN + 1e-9:
+            raise ConfigError(f"open-drawer.min_open must be in (0, {JOINT_LIMIT - PULL_MARGIN:.2f}] metres; "
+                              f"got {self.min_open!r}")
         if not isinstance(self.noise, (int, float)) or not 0.0 <= float(self.noise) <= 10.0:
             raise ConfigError(f"open-drawer.noise must be a number in [0, 10], got {self.noise!r}")
         if self.views not in ("default", "rlbench"):
@@ -88,9 +95,22 @@ class OpenDrawerConfig(TaskConfig):
                               f"got {self.disturbance!r}")
 
 
+INSTRUCTION = "open the drawer by pulling its handle"
+
+
+def describe_opening(min_open: float) -> str:
+    """The instruction for an opening goal (the instruction grammar reads it back to the same opening)."""
+    if abs(min_open - OPEN_MIN) < 1e-9:
+        return INSTRUCTION
+    return f"open the drawer {round(min_open * 100, 2):g} cm by pulling its handle"
+
+
 class OpenDrawer(Task):
     ee_kind = "gripper"
-    instruction = "open the drawer by pulling its handle"
+
+    @property
+    def instruction(self) -> str:  # type: ignore[override]
+        return self.config.instruction or describe_opening(self.config.min_open)
 
     def __init__(self, config: OpenDrawerConfig) -> None:
         super().__init__(config)
@@ -114,11 +134,11 @@ class OpenDrawer(Task):
 
     def judge(self, world: Any, skill: str, args: dict[str, Any]) -> str | None:
         """With a noisy policy, the first failed skill (a ``policy_failure``): ``grasp_missed`` or ``pull_short``
-        (released with the drawer open less than ``OPEN_MIN``); the exact oracle logs none (its failures are the
+        (released with the drawer open less than ``min_open``); the exact oracle logs none (its failures are the
         disturbance's)."""
         if self.config.noise <= 0:
             return None
-        if skill == "pull" and self.opening(world) < OPEN_MIN:
+        if skill == "pull" and self.opening(world) < self.config.min_open:
             return "pull_short"
         if skill == "grasp":
             from code_as_monitor.sim.tasks.rlbench_base import grasp_failure
@@ -153,8 +173,9 @@ class OpenDrawer(Task):
     def evaluate(self, world: Any) -> TaskResult:
         q = self.opening(world)
         held = world.robot.ee.holding == world.body_of(OBJ)
-        ok, reason = drawer_open(q, held)
-        info = {"t": world.t, "opening": q, "handle": world.position(f"{OBJ}/handle").tolist()}
+        ok, reason = drawer_open(q, held, self.config.min_open)
+        info = {"t": world.t, "opening": q, "min_open": self.config.min_open,
+                "handle": world.position(f"{OBJ}/handle").tolist()}
         if ok and world.t > self.config.time_limit + 1e-9:
             ok, reason = False, f"opened after the time limit ({world.t:.1f} s)"
         return TaskResult(ok, reason, info)
@@ -162,7 +183,7 @@ class OpenDrawer(Task):
     def default_plan(self) -> list[Action]:
         return [
             Action("grasp", {"obj": OBJ, "part": "handle"}),
-            Action("pull", {"obj": OBJ, "distance": PULL_DISTANCE}),
+            Action("pull", {"obj": OBJ, "distance": round(self.config.min_open + PULL_MARGIN, 4)}),
         ]
 
     # --- disturbances --------------------------------------------------------------------------------

@@ -241,7 +241,7 @@ FILLERS: set[tuple[str, ...]] = {
     "is", "to"), ("then", "you"), ("let", "us"), ("let's",), ("for", "me"), ("as", "follows"), ("order",),
     ("ordered",), ("sorted",), ("one", "by", "one"), ("one", "at", "a", "time"), ("with",), ("there",),
     ("like", "this"), ("to",), ("of",), ("way",), ("all", "together"), ("up", "to", "you"), ("back",), ("away",),
-    ("for", "me"), ("for", "us"), ("properly",), ("again",),
+    ("for", "me"), ("for", "us"), ("properly",), ("again",), ("which", "is"), ("which", "are"),
 }
 """Phrases that change nothing about the task. ``with``, ``to`` and ``of`` are fillers only where the parser
 finds no phrase after them (``with`` before a position, ``to`` before a verb)."""

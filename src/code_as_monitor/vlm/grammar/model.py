@@ -102,10 +102,12 @@ class Listing:
 
 @dataclass(frozen=True)
 class Measure:
-    """A length ("10 cm"), in metres; ``text`` the words."""
+    """A length ("10 cm"), in metres; ``text`` the words; ``bound`` as in :class:`Quantity` (``plain``,
+    ``about``, ``exact``, ``at_least``, ``at_most``, ``more``, ``fewer``): "at least 10 cm", "up to 10 cm"."""
 
     metres: float
     text: str
+    bound: str = "plain"
 
 
 @dataclass(frozen=True)
