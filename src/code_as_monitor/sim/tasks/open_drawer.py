@@ -25,6 +25,9 @@ Disturbances (config ``disturbance``):
 distance uniform in [3, 7] cm) the grasp slips off the handle: the attachment is removed, the fingers
 stay closed (event ``grasp_slipped``). The open-loop policy keeps pulling air, opens and retreats; the
 drawer stays 3-7 cm open, so the open loop fails.
+Learned-policy analogue (the RLBench suite): ``noise`` > 0 perturbs the grasp and the pull's length (``NOISE``) and
+logs the first failed skill as a ``policy_failure`` (``grasp_missed``, ``pull_short``; see
+:mod:`code_as_monitor.sim.tasks.rlbench_base`); ``views="rlbench"`` gives it RLBench's four cameras.
 Expected failure signals: the handle is no longer at the grasp point while the gripper pulls (the
 grasp point moves on along the pull, the handle and the drawer front stay); after the pull the drawer
 front has moved less than the required distance.
@@ -33,7 +36,7 @@ front has moved less than the required distance.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -67,17 +70,26 @@ def drawer_open(opening: float, held: bool, min_open: float = OPEN_MIN) -> tuple
 @dataclass
 class OpenDrawerConfig(TaskConfig):
     """``disturbance``: none or slip (the grasp slips off the handle mid-pull); ``min_open``: metres the
-    drawer must be open for success (0 < min_open <= JOINT_LIMIT - PULL_MARGIN)."""
+    drawer must be open for success (0 < min_open <= JOINT_LIMIT - PULL_MARGIN). ``noise``: the policy's action
+    noise (0, the default: the exact oracle of Table 2; 1: the RLBench suite's learned-policy analogue, see
+    :mod:`code_as_monitor.sim.tasks.rlbench_base`); ``views``: ``default`` (front and top) or ``rlbench`` (the
+    four RLBench cameras)."""
 
     time_limit: float = 60.0
     disturbance: str = "none"
     min_open: float = OPEN_MIN
+    noise: float = 0.0
+    views: str = "default"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not 0.0 < float(self.min_open) <= JOINT_LIMIT - PULL_MARGIN + 1e-9:
             raise ConfigError(f"open-drawer.min_open must be in (0, {JOINT_LIMIT - PULL_MARGIN:.2f}] metres; "
                               f"got {self.min_open!r}")
+        if not isinstance(self.noise, (int, float)) or not 0.0 <= float(self.noise) <= 10.0:
+            raise ConfigError(f"open-drawer.noise must be a number in [0, 10], got {self.noise!r}")
+        if self.views not in ("default", "rlbench"):
+            raise ConfigError(f"open-drawer.views must be default or rlbench, got {self.views!r}")
         if self.disturbance not in DISTURBANCES:
             raise ConfigError(f"open-drawer.disturbance must be one of {', '.join(DISTURBANCES)}; "
                               f"got {self.disturbance!r}")
@@ -105,37 +117,41 @@ class OpenDrawer(Task):
         self.config: OpenDrawerConfig = config
         self.joint = -1  # index of the drawer's prismatic joint (its child link is the ``drawer`` part)
 
+    NOISE: ClassVar[dict[str, float]] = {"grasp_xy": 0.008, "grasp_z": 0.003, "grasp_yaw": 0.05, "pull_rel": 0.065}
+    """The learned-policy analogue's noise (``noise`` > 0 only); see ``rlbench_base``."""
+
+    def action_noise(self, seed: int) -> Any:
+        from code_as_monitor.sim.action_noise import ActionNoise
+
+        return ActionNoise(self.NOISE, float(self.config.noise), seed)
+
+    def camera_specs(self, width: int, height: int) -> list[Any] | None:
+        if self.config.views != "rlbench":
+            return None
+        from code_as_monitor.sim.cameras import rlbench_cameras
+
+        return rlbench_cameras(width, height)
+
+    def judge(self, world: Any, skill: str, args: dict[str, Any]) -> str | None:
+        """With a noisy policy, the first failed skill (a ``policy_failure``): ``grasp_missed`` or ``pull_short``
+        (released with the drawer open less than ``min_open``); the exact oracle logs none (its failures are the
+        disturbance's)."""
+        if self.config.noise <= 0:
+            return None
+        if skill == "pull" and self.opening(world) < self.config.min_open:
+            return "pull_short"
+        if skill == "grasp":
+            from code_as_monitor.sim.tasks.rlbench_base import grasp_failure
+
+            part = str(args.get("part", ""))
+            return grasp_failure(world, args["obj"], part, str(args.get("intended", part)))
+        return None
+
     def load_scene(self, world: Any) -> None:
-        import pybullet as pb
-
-        from code_as_monitor.sim.world import ASSETS
-
-        c = world.client
-        body = pb.loadURDF(str(ASSETS / "drawer_cabinet.urdf"), [0.65, 0.0, 0.0],
-                           pb.getQuaternionFromEuler([0, 0, np.pi]), useFixedBase=True, physicsClientId=c)
-        links = {pb.getJointInfo(body, j, physicsClientId=c)[12].decode(): j
-                 for j in range(pb.getNumJoints(body, physicsClientId=c))}
-        self.joint = links["drawer"]
-        # sliding friction as a velocity motor (target 0) with a small force: the drawer stays where it is left
-        pb.setJointMotorControl2(body, self.joint, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=DRAWER_FRICTION,
-                                 physicsClientId=c)
-        for link in (-1, *links.values()):
-            pb.changeDynamics(body, link, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
-        world.add_object(OBJ, [body], parts={"frame": (body, -1), "drawer": (body, links["drawer"]),
-                                             "handle": (body, links["handle"])}, graspable=True)
+        self.joint = load_cabinet(world)
 
     def reset(self, world: Any) -> None:
-        import pybullet as pb
-
-        rng, c = world.rng, world.client
-        r, bearing = rng.uniform(0.46, 0.54), rng.uniform(-np.radians(20), np.radians(20))
-        handle = r * np.array([np.cos(bearing), np.sin(bearing)])
-        yaw = bearing + np.pi + rng.uniform(-np.radians(15), np.radians(15))  # local +x towards the base
-        origin = handle - HANDLE_OFFSET * np.array([np.cos(yaw), np.sin(yaw)])
-        body = world.body_of(OBJ)
-        pb.resetBasePositionAndOrientation(body, [*origin, 0.0], pb.getQuaternionFromEuler([0, 0, yaw]),
-                                           physicsClientId=c)
-        pb.resetJointState(body, self.joint, 0.0, 0.0, physicsClientId=c)
+        place_cabinet(world, self.joint)
 
     # --- interface used by the gripper and drawer skills ---------------------------------------------
     def opening(self, world: Any) -> float:
@@ -175,6 +191,45 @@ class OpenDrawer(Task):
         if self.config.disturbance == "slip":
             return [Triggered("slip", _PullSlip(self, seed), _slip_off_handle, [seed, 31])]
         return []
+
+
+def load_cabinet(world: Any) -> int:
+    """Load ``assets/drawer_cabinet.urdf`` as object ``drawer_cabinet`` (parts ``frame``, ``drawer``, ``handle``;
+    graspable) with the drawer's sliding friction; returns the drawer's prismatic joint index."""
+    import pybullet as pb
+
+    from code_as_monitor.sim.world import ASSETS
+
+    c = world.client
+    body = pb.loadURDF(str(ASSETS / "drawer_cabinet.urdf"), [0.65, 0.0, 0.0],
+                       pb.getQuaternionFromEuler([0, 0, np.pi]), useFixedBase=True, physicsClientId=c)
+    links = {pb.getJointInfo(body, j, physicsClientId=c)[12].decode(): j
+             for j in range(pb.getNumJoints(body, physicsClientId=c))}
+    # sliding friction as a velocity motor (target 0) with a small force: the drawer stays where it is left
+    pb.setJointMotorControl2(body, links["drawer"], pb.VELOCITY_CONTROL, targetVelocity=0.0, force=DRAWER_FRICTION,
+                             physicsClientId=c)
+    for link in (-1, *links.values()):
+        pb.changeDynamics(body, link, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
+    world.add_object(OBJ, [body], parts={"frame": (body, -1), "drawer": (body, links["drawer"]),
+                                         "handle": (body, links["handle"])}, graspable=True)
+    return links["drawer"]
+
+
+def place_cabinet(world: Any, joint: int) -> float:
+    """Randomise the cabinet with ``world.rng`` (see the module docstring) and close its drawer; returns the
+    handle's bearing from the robot base (radians)."""
+    import pybullet as pb
+
+    rng, c = world.rng, world.client
+    r, bearing = rng.uniform(0.46, 0.54), rng.uniform(-np.radians(20), np.radians(20))
+    handle = r * np.array([np.cos(bearing), np.sin(bearing)])
+    yaw = bearing + np.pi + rng.uniform(-np.radians(15), np.radians(15))  # local +x towards the base
+    origin = handle - HANDLE_OFFSET * np.array([np.cos(yaw), np.sin(yaw)])
+    body = world.body_of(OBJ)
+    pb.resetBasePositionAndOrientation(body, [*origin, 0.0], pb.getQuaternionFromEuler([0, 0, yaw]),
+                                       physicsClientId=c)
+    pb.resetJointState(body, joint, 0.0, 0.0, physicsClientId=c)
+    return float(bearing)
 
 
 class _PullSlip:

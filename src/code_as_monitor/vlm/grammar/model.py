@@ -44,7 +44,8 @@ class Phrase:
         colour: its colour adjective, ``""`` if none.
         quantity: its quantity, or None.
         plural, definite: "blocks"; "the ...".
-        position: ``bottom``, ``middle``, ``top`` or ``table`` ("red at the bottom", "the top block").
+        position: ``bottom``, ``middle``, ``top`` or ``table`` ("red at the bottom", "the top block"), or a side
+            ``left``/``right`` ("the left tap").
         ordinal: 1, 2, ... or -1 (last) with ``ordinal_from`` ``bottom`` or ``top`` ("the second from the top").
         pronoun: ``it`` or ``them`` for a pronoun; ``ref`` is then the index of the phrase it stands for.
         verb: the canonical verb of its clause (``""`` if none).
