@@ -172,6 +172,10 @@ TABLE: list[tuple[str, str, Any]] = [
     ("tea", "pour the tea into the cup and then pour it back", REFUSE),
     ("tea", "pour the tea into both cups", REFUSE),
     ("pen", "put the pen in the holder then in the cup", REFUSE),
+    ("pen", "put both pens into the holder", REFUSE),
+    ("drawer", "open both drawers", REFUSE),
+    ("sweep", "push both blocks into the zone", REFUSE),
+    ("sweep", "push half the blocks into half the zone", REFUSE),
     # --- open-drawer ------------------------------------------------------------------------------------
     ("drawer", "open the drawer by pulling its handle", FIXED["drawer"]),
     ("drawer", "slide the drawer out", FIXED["drawer"]),

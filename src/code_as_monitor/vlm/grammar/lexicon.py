@@ -173,7 +173,7 @@ COMPARATORS: dict[tuple[str, ...], str] = {
 
 QUANTIFIERS: dict[tuple[str, ...], str] = {
     ("all",): "all", ("all", "of"): "all", ("every",): "all", ("each",): "all", ("each", "of"): "all",
-    ("both",): "all", ("whole",): "all", ("entire",): "all", ("all", "the"): "all", ("none",): "none",
+    ("both",): "both", ("whole",): "all", ("entire",): "all", ("all", "the"): "all", ("none",): "none",
     ("no",): "none", ("several",): "some", ("some",): "some", ("a", "few"): "some", ("a", "couple", "of"): "some",
     ("many",): "some", ("most",): "some", ("any",): "some",
 }

@@ -17,7 +17,7 @@ class Quantity:
 
     Attributes:
         kind: ``number`` ("10 blocks"), ``fraction`` ("half of the blocks", "25 %"), ``all`` ("all", "every",
-            "both"), ``some`` ("some", "a few") or ``none`` ("no", "none").
+            "both": ``of_total`` 2), ``some`` ("some", "a few") or ``none`` ("no", "none").
         value: the count, or the fraction in [0, 1]; 1.0 for ``all``.
         bound: ``plain``, ``about``, ``exact``, ``at_least``, ``at_most``, ``more``, ``fewer`` or ``between``.
         high: the upper value of a ``between`` range ("between 6 and 10").

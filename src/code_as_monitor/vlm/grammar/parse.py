@@ -99,6 +99,8 @@ class _Parser:
         bound = np.cmp or "plain"
         if np.quant == "none":
             return Quantity("none", 0.0, bound, text=words)
+        if np.quant == "both":  # all of two: a family with another count refuses it by ``of_total``
+            return Quantity("all", 1.0, bound, of_total=2.0, text=words)
         after_of = np.nums[np.nums_before_of:] if np.of_seen else []
         total = after_of[-1] if after_of else None
         if np.fracs > 1:

@@ -157,7 +157,8 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
         r.refuse("which drawer? say 'the drawer'")
     for p in parts:
         q = ins.resolve(p.index)
-        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
+        if q.colour or q.position or q.ordinal or (q.quantity is not None and (
+                q.quantity.value != 1 or q.quantity.of_total not in (None, 1))):
             r.refuse(f"{p.text!r}: the scene has one drawer with one handle")
         r.use(p.index)
     for k in ins.links:

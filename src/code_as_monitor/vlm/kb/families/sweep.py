@@ -135,6 +135,9 @@ def understand(ins: Instruction, objects: list[str]) -> SweepGoal | None:
         r.refuse("say which blocks to push (e.g. 'half of the blocks')" if not movers else
                  "name the blocks to push once")
     for z in zones:
+        zq = ins.resolve(z.index).quantity
+        if zq is not None and not (zq.kind == "all" and zq.of_total is None):  # "the whole zone" is the zone
+            r.refuse(f"{z.text!r}: the blocks go into the one zone, all of it")
         if ins.resolve(z.index).colour not in ("", "yellow"):
             r.refuse(f"there is no {ins.resolve(z.index).colour} zone (the zone is yellow)")
     mover = ins.resolve(movers[0].index)

@@ -141,7 +141,7 @@ def understand(ins: Instruction, objects: list[str]) -> TeaGoal | None:
     for p in pots + cups + teas:
         q = ins.resolve(p.index)
         if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.kind not in ("all", "some")) \
-                or (q.plural and q.head != "tea"):
+                or (q.plural and q.head != "tea") or (q.quantity is not None and q.quantity.of_total is not None):
             r.refuse(f"{p.text!r}: the kb pours all the tea from the one teapot into the one teacup")
         r.use(p.index)
     if not ins.verbs or not {"pour", "fill"} & set(ins.verbs):

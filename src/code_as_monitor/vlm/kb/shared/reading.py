@@ -141,7 +141,8 @@ def read_placement(r: Reading, objects: list[str], *, item: tuple[str, ...], ite
         r.refuse(f"say where the {what} goes: into the {where}")
     for p in items + places:
         q = ins.resolve(p.index)
-        if q.colour or (q.quantity is not None and q.quantity.value != 1) or q.position or q.ordinal:
+        if q.colour or (q.quantity is not None and (q.quantity.value != 1 or q.quantity.of_total not in (None, 1))) \
+                or q.position or q.ordinal:
             r.refuse(f"{p.text!r}: the scene has one {what} and one {where}")
         r.use(p.index)
     for k in ins.links:
