@@ -4,7 +4,9 @@ Accuracy: for every tracker in ``--trackers`` (``lk``, ``depth``, ``sim``) and e
 ``--conditions`` (default: one disturbed condition per task: carried, dropped, collapsed, pushed, knocked,
 tilted and slipped objects, occluded by the arm), one closed-loop Code-as-Monitor episode per seed:
 planner and coder ``kb`` (a rule-based stand-in for a VLM, not a VLM), elements painted from ``sim``
-masks, two 320x240 views at 10 Hz. The tracker the agent uses is wrapped: every frame, each element it
+masks, two 320x240 views at 10 Hz, and ``cam bench``'s per-frame sandbox deadline (0.5 s; with the robot's
+20 ms, frames overrun on a busy machine, each overrun is a fault and replaces the sandbox worker, so the
+episodes would depend on the load). The tracker the agent uses is wrapped: every frame, each element it
 reports fresh is scored against ground truth, its painted points carried along with its owner's true
 pose (``Observation.object_poses``, read here by the benchmark only, never by the ``lk``/``depth``
 trackers), re-anchored when the agent re-paints it. Per element kind: position error (point: the point;
@@ -138,6 +140,7 @@ def _light(obs: Observation) -> Observation:
 def run_episode(tracker: str, cid: str, seed: int, record: bool = False) -> tuple[dict[str, Any], ScoredTracker]:
     """One closed-loop episode of condition ``cid`` with ``tracker``; its scores."""
     from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+    from code_as_monitor.bench.episode import BENCH_DEADLINE_S
     from code_as_monitor.bench.protocol import condition, episode_seed
 
     cond = condition(cid) if cid != "demo" else None
@@ -153,7 +156,8 @@ def run_episode(tracker: str, cid: str, seed: int, record: bool = False) -> tupl
     try:
         t0 = time.perf_counter()
         summary = run_closed_loop(ClosedLoopConfig(task=task, seed=sim_seed, task_params=params, tracker=tracker,
-                                                   width=320, height=240, video=False))
+                                                   width=320, height=240, video=False,
+                                                   deadline_s=BENCH_DEADLINE_S))
     finally:
         perception.make_tracker = original
     sc = made[0]

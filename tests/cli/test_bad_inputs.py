@@ -5,7 +5,8 @@ Each case runs ``cam`` in-process from an empty working directory (so default ou
 traceback, nothing on stdout, and the directory tree unchanged (no run directory, no results file,
 no report). ``UNWRITABLE`` stands for a directory nobody can create files in; ``FILE`` for an existing
 regular file; ``DIR`` for an existing directory; ``EMPTY``, ``GARBAGE``, ``NOKEYS``, ``FEWKEYS`` for
-results files that are empty, not JSON, without the episode keys, without the keys the report reads.
+results files that are empty, not JSON (``GARBAGE1``: a single complete line), without the episode keys,
+without the keys the report reads.
 A separate test mounts a real read-only file system (where it is allowed) for the output flags.
 """
 
@@ -49,6 +50,17 @@ CASES: list = [
     ("run-tracker-unknown", ["run", "stack-in-order", "--tracker", "foo"], "foo"),
     ("run-unknown-flag", ["run", "stack-in-order", "--frobnicate"], "--frobnicate"),
     ("run-timeout-zero", ["run", "stack-in-order", "--timeout", "0"], "--timeout"),
+    ("run-model-empty", ["run", "stack-in-order", "--backend", "openai", "--model", ""], "--model"),
+    ("run-api-key-env-for-kb", ["run", "stack-in-order", "--api-key-env", "MY_KEY"], "--api-key-env"),
+    ("run-hz-denormal", ["run", "stack-in-order", "--camera-hz", "1e-320"], "--camera-hz"),
+    ("run-hz-above-sim-rate", ["run", "stack-in-order", "--camera-hz", "41"], "camera_hz"),
+    ("run-deadline-huge", ["run", "stack-in-order", "--deadline", "1e23"], "--deadline"),
+    ("run-deadline-denormal", ["run", "stack-in-order", "--deadline", "1e-320"], "--deadline"),
+    ("run-size-huge", ["run", "stack-in-order", "--size", "100000x100000"], "--size"),
+    ("run-replans-huge", ["run", "stack-in-order", "--max-replans", str(10**23)], "--max-replans"),
+    ("run-q-huge", ["run", "stack-in-order", "--q", "1e23"], "q"),
+    ("run-set-q-huge", ["run", "stack-in-order", "--set", "q=1e300"], "q"),
+    ("run-timeout-huge", ["run", "stack-in-order", "--backend", "openai", "--timeout", "1e23"], "--timeout"),
     ("run-max-tokens-zero", ["run", "stack-in-order", "--max-tokens", "0"], "--max-tokens"),
     ("run-instruction-empty", ["run", "stack-in-order", "--instruction", " "], "--instruction"),
     ("run-instruction-not-understood", ["run", "stack-in-order", "--instruction", "juggle three oranges"],
@@ -70,8 +82,10 @@ CASES: list = [
     ("sim-events-exists", ["sim", "stack-in-order", "--events", "FILE"], "already exists"),
     ("sim-no-task", ["sim"], "task"),
     ("sim-hz-negative", ["sim", "stack-in-order", "--camera-hz", "-1"], "--camera-hz"),
+    ("sim-hz-above-control-rate", ["sim", "stack-in-order", "--camera-hz", "41"], "--camera-hz"),
     ("plan-max-subgoals-zero", ["plan", PLAN, "--max-subgoals", "0"], "--max-subgoals"),
     ("plan-image-missing", ["plan", PLAN, "--image", "front=missing.png"], "cannot read an image"),
+    ("plan-image-empty-path", ["plan", PLAN, "--image", "front="], "cannot read an image"),
     ("plan-timeout-negative", ["plan", PLAN, "--timeout", "-1"], "--timeout"),
     ("plan-cassette-missing", ["plan", PLAN, "--backend", "replay", "--cassette", "nope.jsonl"], "no such file"),
     ("plan-record-exists", ["plan", PLAN, "--record", "FILE"], "already exists"),
@@ -82,6 +96,11 @@ CASES: list = [
     ("elements-seed-negative", ["elements", "--seed", "-1"], "--seed"),
     ("bench-episodes-zero", ["bench", "--seeds", "1", "--episodes", "0"], "--episodes"),
     ("bench-seeds-zero", ["bench", "--seeds", "0"], "--seeds"),
+    ("bench-seeds-huge", ["bench", "--seeds", str(10**23)], "--seeds"),
+    ("bench-episodes-huge", ["bench", "--episodes", "99999"], "--episodes"),
+    ("bench-doremi-k-huge", ["bench", "--doremi-k", "1e23"], "--doremi-k"),
+    ("bench-ray-address-empty-without-ray", ["bench", "--ray-address", ""], "--executor ray"),
+    ("bench-results-one-garbage-line", ["bench", "--results", "GARBAGE1"], "not valid JSON"),
     ("bench-workers-negative", ["bench", "--workers", "-1"], "--workers"),
     ("bench-method-unknown", ["bench", "--methods", "nope"], "nope"),
     ("bench-condition-unknown", ["bench", "--conditions", "nope"], "nope"),
@@ -105,6 +124,7 @@ CASES: list = [
     ("report-missing", ["report", "none.jsonl"], "no such file"),
     ("report-empty", ["report", "EMPTY"], "no episode records"),
     ("report-garbage", ["report", "GARBAGE"], "not valid JSON"),
+    ("report-one-garbage-line", ["report", "GARBAGE1"], "not valid JSON"),
     ("report-nokeys", ["report", "NOKEYS"], "lacks"),
     ("report-fewkeys", ["report", "FEWKEYS"], "lacks"),
     ("report-out-is-file", ["report", "FEWKEYS", "--out", "FILE"], "not a directory"),
@@ -118,6 +138,10 @@ CASES: list = [
     ("monitor-bag-missing", ["monitor", "none.mcap"], "no such file"),
     ("monitor-topics-missing", ["monitor", "DIR", "--topics", "none.yaml"], "no such file"),
     ("monitor-rate-unknown", ["monitor", "DIR", "--rate", "warp"], "--rate"),
+    ("monitor-hz-huge", ["monitor", "DIR", "--camera-hz", "5000"], "--camera-hz"),
+    ("monitor-deadline-zero", ["monitor", "DIR", "--deadline", "0"], "--deadline"),
+    ("monitor-instruction-empty", ["monitor", "DIR", "--instruction", " "], "--instruction"),
+    ("monitor-objects-empty", ["monitor", "DIR", "--objects", ",,"], "--objects"),
     pytest.param("monitor-bag-garbage", ["monitor", "GARBAGE"], "cannot read bag",
                  marks=pytest.mark.skipif(importlib.util.find_spec("rosbags") is None, reason="needs the ros extra")),
     ("reproduce-results-missing", ["reproduce", "none.jsonl", "--key", "stack-p0/cam/0/0"], "no such file"),
@@ -150,6 +174,7 @@ def workdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     (tmp_path / "adir").mkdir()
     (tmp_path / "empty.jsonl").write_text("")
     (tmp_path / "garbage.jsonl").write_text("not json\n{}\n")
+    (tmp_path / "garbage1.jsonl").write_text("not json\n")  # a complete line: not a torn write
     (tmp_path / "nokeys.jsonl").write_text('{"kind": "episode", "condition": "stack-p0"}\n')
     (tmp_path / "fewkeys.jsonl").write_text(EP + "\n")
     monkeypatch.chdir(tmp_path)
@@ -158,6 +183,7 @@ def workdir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def _resolve(argv: list[str], root: Path) -> list[str]:
     subs = {"FILE": "existing.txt", "DIR": "adir", "EMPTY": "empty.jsonl", "GARBAGE": "garbage.jsonl",
+            "GARBAGE1": "garbage1.jsonl",
             "NOKEYS": "nokeys.jsonl", "FEWKEYS": "fewkeys.jsonl"}
     unwritable = str(_unwritable(root))
     return [subs.get(a, a.replace("UNWRITABLE", unwritable)) for a in argv]

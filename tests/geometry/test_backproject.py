@@ -135,3 +135,24 @@ def test_scene_back_projection_lies_on_the_box(scene: SyntheticScene) -> None:
         uv, _ = cam.project(P)
         v, u = np.nonzero(mask)
         np.testing.assert_allclose(uv, np.c_[u, v], atol=1e-4)
+
+
+def test_lift_depth_matches_per_pixel_lifting_and_zeroes_invalid_pixels() -> None:
+    """The whole-image lift (cached rays per camera) gives the per-pixel result for every valid pixel and
+    0 elsewhere; two poses of the same intrinsics do not share rays."""
+    from code_as_monitor.geometry.backproject import lift_depth
+
+    rng = np.random.default_rng(3)
+    c, s = np.cos(0.7), np.sin(0.7)
+    T = np.eye(4)
+    T[:3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    T[:3, 3] = [0.3, -0.1, 1.2]
+    depth = rng.uniform(0.2, 3.0, (48, 64)).astype(np.float32)
+    depth[rng.random((48, 64)) < 0.2] = np.nan
+    depth[0, :5] = [0.0, -1.0, np.inf, 9.0, 1.0]
+    for cam in (_cam(T=T), _cam()):
+        pts, valid = lift_depth(depth, cam)
+        assert pts.shape == (48, 64, 3) and valid.dtype == bool
+        assert not valid[0, :4].any() and valid[0, 4]
+        np.testing.assert_allclose(pts[valid], backproject_mask(valid, depth, cam), rtol=0, atol=1e-12)
+        assert not pts[~valid].any()

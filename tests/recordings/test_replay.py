@@ -56,12 +56,13 @@ def test_replay_gives_the_live_runs_violations(recorded: tuple[Path, dict[str, A
 def test_cam_monitor_writes_a_run_dir(recorded: tuple[Path, dict[str, Any]], tmp_path: Path, capsys) -> None:
     bag, _ = recorded
     runs = tmp_path / "runs"
-    assert main(["monitor", str(bag), "--tracker", "sim", "--runs", str(runs), "--quiet"]) == 0
+    assert main(["monitor", str(bag), "--tracker", "sim", "--runs", str(runs)]) == 0  # the live log too
     (run_dir,) = runs.iterdir()
     assert {"events.jsonl", "summary.json", "episode.mp4", "programs", "prompts"} <= {p.name for p in run_dir.iterdir()}
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["frames"]["dropped"] == 0 and summary["frames"]["judged"] > 10
-    assert "dropped for sync: 0" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "dropped for sync: 0" in out and "COMPLETED" in out
 
 
 def test_record_refuses_to_overwrite(recorded: tuple[Path, dict[str, Any]], tmp_path: Path, capsys) -> None:

@@ -7,10 +7,12 @@ segmenter, the tracker, and which cameras to use. :mod:`code_as_monitor.agent.bu
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
+from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -54,19 +56,17 @@ class AgentConfig:
 
     def __post_init__(self) -> None:
         name = type(self).__name__
-        if not self.frame_hz > 0:
-            raise ConfigError(f"{name}.frame_hz must be > 0, got {self.frame_hz!r}")
-        if self.max_replans < 0:
-            raise ConfigError(f"{name}.max_replans must be >= 0, got {self.max_replans!r}")
-        if self.max_subgoals < 1:
-            raise ConfigError(f"{name}.max_subgoals must be >= 1, got {self.max_subgoals!r}")
-        if self.history_len < 2:
-            raise ConfigError(f"{name}.history_len must be >= 2, got {self.history_len!r}")
-        if self.time_limit_s is not None and not self.time_limit_s > 0:
-            raise ConfigError(f"{name}.time_limit_s must be > 0 or None, got {self.time_limit_s!r}")
+        # types first (a string, a bool or None where a number goes), then ranges; each error names the value
+        check_fields(name, type(self), {f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+        check_range(name, "frame_hz", self.frame_hz, *RATE_HZ_RANGE)
+        check_count(name, "max_replans", self.max_replans, 0)
+        check_count(name, "max_subgoals", self.max_subgoals, 1)
+        check_count(name, "history_len", self.history_len, 2)
+        if self.time_limit_s is not None:
+            check_range(name, "time_limit_s", self.time_limit_s, 0.0, None, lo_open=True)
         for f in ("code_retries", "upon_dwell_frames", "settle_frames"):
-            if getattr(self, f) < 0:
-                raise ConfigError(f"{name}.{f} must be >= 0, got {getattr(self, f)!r}")
+            check_count(name, f, getattr(self, f), 0)
+        check_range(name, "refresh_motion", self.refresh_motion, 0.0, None)
 
 
 @dataclass
@@ -98,10 +98,15 @@ class MonitorConfig(AgentConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not self.deadline_s > 0:
-            raise ConfigError(f"MonitorConfig.deadline_s must be > 0, got {self.deadline_s!r}")
+        check_range("MonitorConfig", "deadline_s", self.deadline_s, *DEADLINE_S_RANGE)
         if not isinstance(self.allow_unconfined, bool):
             raise ConfigError(f"MonitorConfig.allow_unconfined must be true or false, got {self.allow_unconfined!r}")
+        for f in ("backend_options", "segmenter_options", "tracker_options"):
+            if not isinstance(getattr(self, f), dict):
+                raise ConfigError(f"MonitorConfig.{f} must be a dict of options, got {getattr(self, f)!r}")
+        if self.cameras is not None and not isinstance(self.cameras, list | tuple):
+            raise ConfigError(f"MonitorConfig.cameras must be a non-empty list of view names or None, "
+                              f"got {self.cameras!r}")
         if self.cameras is not None and (not self.cameras or not all(isinstance(c, str) and c for c in self.cameras)):
             raise ConfigError(f"MonitorConfig.cameras must be a non-empty list of view names or None, "
                               f"got {self.cameras!r}")

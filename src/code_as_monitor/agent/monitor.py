@@ -31,6 +31,8 @@ action to start, and whether the episode is over. Nothing here imports the simul
 from __future__ import annotations
 
 import logging
+import math
+import numbers
 from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -47,7 +49,7 @@ from code_as_monitor.agent.records import (
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalChecker, SubgoalEnd
 from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.errors import ConfigError, ObservationError, VLMError
-from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.observation import Observation, check_observation
 
 if TYPE_CHECKING:
     from code_as_monitor.agent.config import MonitorConfig
@@ -142,6 +144,8 @@ class Monitor:
     def frame_due(self, t: float, policy_done: bool = False) -> bool:
         """Whether :meth:`step` would judge a frame taken at ``t`` (a caller whose frames are expensive
         asks before rendering). Between subgoals every frame is due; after the episode none is."""
+        if isinstance(t, bool) or not isinstance(t, numbers.Real) or not math.isfinite(t):
+            raise ObservationError(f"Monitor.frame_due: t must be a finite number of seconds, got {t!r}")
         if self._state == "run":
             return self.checker.frame_due(t, policy_done)
         return self._state == "plan"
@@ -158,6 +162,7 @@ class Monitor:
             raise ConfigError("Monitor.step called before Monitor.start(instruction)")
         if self._state == "over":
             raise ConfigError("Monitor.step called after the episode ended; call start() for a new one")
+        check_observation(obs)
         obs = self._select_views(obs)
         if self._last_t is not None and obs.t < self._last_t:
             raise ObservationError(f"observation time went backwards: {obs.t!r} after {self._last_t!r}")

@@ -51,12 +51,43 @@ class RunArtefacts:
         (self.run_dir / "programs" / f"subgoal{index:02d}.py").write_text(header + source, encoding="utf-8")
 
     def close(self) -> None:
-        if self.video is not None:
-            for frame in self.compose.tail():
-                self.video.write(frame)
-            self.video.close()
-        if self.events is not None:
-            self.events.close()
+        """Finish the video (its held banners) and close the event log, which is closed even when the
+        video cannot be finished (an encoder stopped by an interrupt)."""
+        try:
+            if self.video is not None:
+                if self.video.ended_early is None:
+                    for frame in self.compose.tail():
+                        self.video.write(frame)
+                self.video.close()
+        finally:
+            if self.events is not None:
+                self.events.close()
 
 
-__all__ = ["RunArtefacts"]
+def finish_early(out: RunArtefacts, monitor: Any, run_dir: Path | None, summary: dict[str, Any], outcome: str,
+                 reason: str) -> None:
+    """After a run ended early (interrupt, backend error): log ``run_stopped``, close the writers and the
+    monitor, and always write ``summary.json``. A step that fails (an encoder stopped mid-frame by the
+    interrupt) is recorded in ``summary["cleanup_errors"]`` and never masks the exception that ended the run,
+    nor keeps the summary from being written."""
+    from code_as_monitor.core.run_io import write_json
+
+    problems: list[str] = []
+    steps = [("log run_stopped", lambda: out.emit("run_stopped", outcome=outcome, reason=reason)),
+             ("close the video and the event log", out.close)]
+    if monitor is not None:
+        steps.append(("close the monitor", monitor.close))
+    try:
+        for what, step in steps:
+            try:
+                step()
+            except Exception as exc:
+                problems.append(f"could not {what}: {type(exc).__name__}: {exc}"[:300])
+    finally:
+        if problems:
+            summary["cleanup_errors"] = problems
+        if run_dir is not None:
+            write_json(run_dir / "summary.json", summary)
+
+
+__all__ = ["RunArtefacts", "finish_early"]

@@ -12,7 +12,7 @@ exception stopped the run: ``error`` names it) or ``interrupted`` (Ctrl-C / SIGT
 
 from __future__ import annotations
 
-import contextlib
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -21,8 +21,18 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
-from code_as_monitor.bench.artefacts import RunArtefacts
-from code_as_monitor.core.checks import check_count, check_positive, check_seed
+from code_as_monitor.bench.artefacts import RunArtefacts, finish_early
+from code_as_monitor.core.checks import (
+    DEADLINE_S_RANGE,
+    IMAGE_SIDE_RANGE,
+    RATE_HZ_RANGE,
+    SIM_CONTROL_HZ,
+    check_count,
+    check_fields,
+    check_range,
+    check_seed,
+)
+from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.run_io import write_json
 
 log = logging.getLogger(__name__)
@@ -67,12 +77,17 @@ class ClosedLoopConfig:
     allow_unconfined: bool = False
 
     def __post_init__(self) -> None:
-        check_seed("ClosedLoopConfig", self.seed)
-        check_count("ClosedLoopConfig", "width", self.width, 32)
-        check_count("ClosedLoopConfig", "height", self.height, 32)
-        check_positive("ClosedLoopConfig", "camera_hz", self.camera_hz)
-        check_count("ClosedLoopConfig", "max_replans", self.max_replans, 0)
-        check_positive("ClosedLoopConfig", "deadline_s", self.deadline_s)
+        name = "ClosedLoopConfig"
+        check_fields(name, type(self), {f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+        check_seed(name, self.seed)
+        for side in ("width", "height"):
+            check_range(name, side, getattr(self, side), *IMAGE_SIDE_RANGE, integer=True)
+        check_range(name, "camera_hz", self.camera_hz, RATE_HZ_RANGE[0], SIM_CONTROL_HZ)
+        check_count(name, "max_replans", self.max_replans, 0)
+        check_range(name, "deadline_s", self.deadline_s, *DEADLINE_S_RANGE)
+        for f in ("task_params", "backend_options", "segmenter_options", "tracker_options"):
+            if not isinstance(getattr(self, f), dict):
+                raise ConfigError(f"{name}.{f} must be a dict, got {getattr(self, f)!r}")
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""
@@ -175,15 +190,7 @@ def run_closed_loop(
                        wall_time_s=round(time.perf_counter() - wall0, 2))
         if monitor is not None:
             summary.update(episode=monitor.episode.to_dict(), vlm=monitor.usage.to_dict())
-        try:
-            with contextlib.suppress(Exception):  # nothing may mask the exception that ended the run
-                out.emit("run_stopped", outcome=outcome, reason=reason)
-        finally:
-            out.close()
-            if monitor is not None:
-                monitor.close()
-            if run_dir is not None:
-                write_json(run_dir / "summary.json", summary)
+        finish_early(out, monitor, run_dir, summary, outcome, reason)
         raise
     monitor.close()
     usage = monitor.usage

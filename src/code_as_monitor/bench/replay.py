@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from code_as_monitor.bench.artefacts import RunArtefacts
+from code_as_monitor.bench.artefacts import RunArtefacts, finish_early
 from code_as_monitor.bench.closed_loop import early_end
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.run_io import write_json
@@ -67,14 +67,7 @@ def replay_bag(source: Any, instruction: str, config: Any, run_dir: Path | None 
         summary.update(outcome=outcome, reason=reason, error=reason, wall_time_s=round(time.perf_counter() - wall0, 3))
         if monitor is not None:
             summary.update(episode=monitor.episode.to_dict(), vlm=monitor.usage.to_dict())
-        try:
-            out.emit("run_stopped", outcome=outcome, reason=reason)
-        finally:
-            out.close()
-            if monitor is not None:
-                monitor.close()
-            if run_dir is not None:
-                write_json(run_dir / "summary.json", summary)
+        finish_early(out, monitor, run_dir, summary, outcome, reason)
         raise
     monitor.close()
     wall = time.perf_counter() - wall0

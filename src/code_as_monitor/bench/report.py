@@ -24,6 +24,7 @@ from typing import Any
 from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import CONDITIONS, METHODS
+from code_as_monitor.bench.record_check import check_episode_record
 from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
 from code_as_monitor.core.errors import RunError
@@ -73,6 +74,7 @@ def _check_records(path: str | Path, recs: list[dict[str, Any]]) -> None:
         if missing:
             raise RunError(f"results {path}: episode record {i + 1} ({r['condition']} {r['method']} s{r['seed']}"
                            f"e{r['episode']}) lacks {', '.join(missing)}")
+        check_episode_record(path, i + 1, r)
 
 
 def summarise(path: str | Path) -> dict[str, Any]:
@@ -320,9 +322,16 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     if out.exists() and not out.is_dir():
         raise RunError(f"report directory {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
-    title = "Table 2 benchmark" if s["conditions"] and all(c.suite == "table2" for c in s["conditions"]) \
-        else "CLIPort benchmark"
-    md = f"# {title}\n\nResults: `{results}`\n\n" + markdown(s)
+    suites = {c.suite for c in s["conditions"]}
+    title = {"table2": "Table 2 benchmark", "rlbench": "RLBench-style benchmark"}.get(
+        suites.pop() if len(suites) == 1 else "", "CLIPort benchmark")
+    if title == "RLBench-style benchmark":
+        from code_as_monitor.bench.report_rlbench import rlbench_markdown
+
+        body_md = rlbench_markdown(s["records"]) + "\n" + versions_note(s) + "\n\n" + STANDIN_NOTE + "\n"
+    else:
+        body_md = markdown(s)
+    md = f"# {title}\n\nResults: `{results}`\n\n" + body_md
     (out / "report.md").write_text(md, encoding="utf-8")
     imgs = plots(s) if s["cells"] else {}
     videos = []

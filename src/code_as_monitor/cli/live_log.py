@@ -60,6 +60,11 @@ class LiveLog:
             c.print(f"[bold red]{ev['outcome'].upper()}[/]  {ev['reason']}")
 
     def outcome(self, ev: dict[str, Any]) -> None:
+        if "success" not in ev:  # a bag replay (cam monitor): a recording neither succeeds nor fails
+            frames = ev.get("frames") or {}
+            self.c.print(f"[bold]{str(ev.get('outcome', '')).upper()}[/]  {ev.get('reason')}; "
+                         f"{ev.get('alarms', 0)} alarm(s), {frames.get('judged', 0)} frames judged")
+            return
         vlm = ev.get("vlm") or {}
         tab = Table(show_header=False, box=None, padding=(0, 2))
         verdict = "[bold green]SUCCESS[/]" if ev["success"] else "[bold red]FAILURE[/]"

@@ -52,7 +52,11 @@ def prepare(args: argparse.Namespace) -> tuple[Any, Any, str, Any]:
 
     require("rosbags", "ros")
     topics = TopicMap.load(args.topics) if args.topics is not None else None
-    objects = [o.strip() for o in args.objects.split(",") if o.strip()] if args.objects else None
+    if args.instruction is not None and not args.instruction.strip():
+        raise ConfigError("--instruction is empty")
+    objects = [o.strip() for o in args.objects.split(",") if o.strip()] if args.objects is not None else None
+    if objects == []:
+        raise ConfigError(f"--objects expects comma-separated object names, got {args.objects!r}")
     source = BagSource(args.bag, topics=topics, objects=objects)
     instruction = args.instruction or source.metadata.get("instruction")
     if not instruction:

@@ -37,7 +37,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--cassette", type=v.input_file, default=None, help="cassette to replay (--backend replay)")
     p.add_argument("--record", type=v.new_file, default=None, metavar="PATH",
                    help="record the session to this cassette (a new file)")
-    p.add_argument("--max-subgoals", type=v.count(1), default=None,
+    p.add_argument("--max-subgoals", type=v.count(1, 10_000), default=None,
                    help="stop after this many subgoals (default: 12 for kb/replay, 1 for openai)")
     p.add_argument("--code", action="store_true", help="also write and print the monitor program of each subgoal")
     p.add_argument("--json", action="store_true", help="print one JSON document instead of text")
@@ -56,6 +56,8 @@ def _load_images(specs: list[str]) -> dict[str, Any]:
     for spec in specs:
         name, _, path = spec.rpartition("=")
         name = name or Path(path).stem
+        if not path or not Path(path).is_file():  # cv2.imread would print its own warning first
+            raise ConfigError(f"--image {spec}: cannot read an image from {path!r} (no such file)")
         bgr = cv2.imread(path, cv2.IMREAD_COLOR)
         if bgr is None:
             raise ConfigError(f"--image {spec}: cannot read an image from {path!r}")

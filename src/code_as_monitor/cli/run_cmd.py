@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.cli import validate as v
+from code_as_monitor.core.checks import DEADLINE_S_RANGE, IMAGE_SIDE_RANGE, RATE_HZ_RANGE
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -56,11 +57,12 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     p.add_argument("--tracker", default="lk",
                    help="tracker: lk (OpenCV Lucas-Kanade, default), depth (depth registration with small_gicp), "
                         "sim (oracle)")
-    p.add_argument("--camera-hz", type=v.positive, default=10.0, help="monitoring/camera rate, Hz (default 10)")
+    p.add_argument("--camera-hz", type=v.number(*RATE_HZ_RANGE), default=10.0,
+                   help="monitoring/camera rate, Hz (default 10; the simulator renders at most 40)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
     p.add_argument("--runs", type=v.output_dir, default="runs", help="parent of the run directory (default runs/)")
-    p.add_argument("--max-replans", type=v.count(0), default=30, help="failed subgoals allowed (default 30)")
-    p.add_argument("--deadline", type=v.positive, default=0.020,
+    p.add_argument("--max-replans", type=v.count(0, 10_000), default=30, help="failed subgoals allowed (default 30)")
+    p.add_argument("--deadline", type=v.number(*DEADLINE_S_RANGE), default=0.020,
                    help="seconds all checks of one frame may take in the sandbox before that frame is a fault "
                         "(default 0.02, a real-time budget; the benchmark uses 0.5: in the simulator time waits "
                         "for the monitor, and a tight wall-clock budget makes results depend on the machine's load)")
@@ -76,12 +78,12 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
 
 def add_server_options(p: argparse.ArgumentParser) -> None:
     """Options of a real model server (the openai backend), shared by run, demo, bench and plan."""
-    p.add_argument("--timeout", type=v.positive, default=None,
+    p.add_argument("--timeout", type=v.number(0.0, 3600.0, lo_open=True), default=None,
                    help="seconds a model request may take before it is given up and closed (openai; default 120; "
                         "a CPU server needs minutes)")
-    p.add_argument("--max-retries", type=v.count(0), default=None,
+    p.add_argument("--max-retries", type=v.count(0, 100), default=None,
                    help="retries on 429/5xx/connection errors (openai; default 3)")
-    p.add_argument("--max-tokens", type=v.count(1), default=None,
+    p.add_argument("--max-tokens", type=v.count(1, 10_000_000), default=None,
                    help="longest answer, tokens (openai; default 2048; prompt + this must fit the server's context)")
     p.add_argument("--no-images", action="store_true", help="send no images (openai; for a text-only model)")
     p.add_argument("--structured", choices=("auto", "json_schema", "json_object", "off"), default=None,
@@ -116,6 +118,9 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
     w, sep, h = str(args.size).lower().partition("x")
     if not sep or not w.isdigit() or not h.isdigit():
         raise ConfigError(f"--size must look like 640x480, got {args.size!r}")
+    lo, hi = IMAGE_SIDE_RANGE
+    if not (lo <= int(w) <= hi and lo <= int(h) <= hi):
+        raise ConfigError(f"--size: width and height must be in [{lo}, {hi}] pixels, got {args.size!r}")
     params = dict(default_params or {})
     params.update(v.parse_settings(getattr(args, "set", None) or []))
     if args.p is not None:
@@ -138,6 +143,9 @@ def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
     """The VLM backend's options from ``--base-url``, ``--model``, ``--api-key-env``, ``--cassette`` and the
     server options (``--timeout`` ...)."""
     backend_options: dict[str, Any] = {}
+    for flag, val in (("--base-url", args.base_url), ("--model", args.model), ("--api-key-env", args.api_key_env)):
+        if val is not None and not val.strip():
+            raise ConfigError(f"{flag} is empty")
     server = server_options(args)
     if args.backend == "openai":
         for key, val in (("base_url", args.base_url), ("model", args.model), ("api_key_env", args.api_key_env)):
@@ -151,8 +159,8 @@ def backend_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
         if args.cassette is None:
             raise ConfigError("--backend replay needs --cassette PATH")
         backend_options["cassette"] = str(args.cassette)
-    elif args.backend != "openai" and (args.base_url or args.model):
-        raise ConfigError(f"--base-url/--model apply to the openai backend, not {args.backend!r}")
+    elif args.backend != "openai" and (args.base_url or args.model or args.api_key_env):
+        raise ConfigError(f"--base-url/--model/--api-key-env apply to the openai backend, not {args.backend!r}")
     return backend_options
 
 

@@ -11,6 +11,7 @@ import argparse
 import json
 
 from code_as_monitor.cli import validate as v
+from code_as_monitor.core.checks import RATE_HZ_RANGE, SIM_CONTROL_HZ
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -28,7 +29,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--events", type=v.new_file, default=None,
                    help="ground-truth event log (JSONL); default: next to --video as <stem>.events.jsonl")
     p.add_argument("--renderer", choices=("tiny", "egl"), default="tiny", help="renderer (default tiny)")
-    p.add_argument("--camera-hz", type=v.positive, default=10.0, help="video frame rate, Hz (default 10)")
+    p.add_argument("--camera-hz", type=v.number(RATE_HZ_RANGE[0], SIM_CONTROL_HZ), default=10.0,
+                   help=f"video frame rate, Hz (default 10, at most {SIM_CONTROL_HZ:g}: one frame per control tick)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=run)
 

@@ -75,13 +75,15 @@ def _check_seed_text(text: str) -> int:
 seed: ArgType = _arg_type("seed", _check_seed_text)
 
 
-def count(minimum: int = 1) -> ArgType:
-    """An integer ``>= minimum`` (episodes, seeds, workers, retries)."""
+def count(minimum: int = 1, maximum: int | None = None) -> ArgType:
+    """An integer ``>= minimum`` (and ``<= maximum``: episodes, seeds, workers, retries)."""
 
     def check(text: str) -> int:
         value = _parse_number(text, True)
         if value < minimum:
             raise ConfigError(f"must be an integer >= {minimum}, got {text}")
+        if maximum is not None and value > maximum:
+            raise ConfigError(f"must be an integer in [{minimum}, {maximum}], got {text}")
         return check_count("", "", value, minimum)
 
     return _arg_type(f"count>={minimum}", check)

@@ -20,6 +20,20 @@ from code_as_monitor.core.errors import ConfigError
 SEED_MAX = 2**32 - 1
 """Largest episode seed (numpy seeds are unsigned 32-bit words here; bigger ones are refused, not wrapped)."""
 
+RATE_HZ_RANGE = (0.01, 1000.0)
+"""Camera / monitoring rates a run accepts, Hz: below one frame per 100 s or above 1 kHz is a typo, and the
+extremes overflow (``1 / 1e-320`` is inf) or make a video encoder refuse the frame rate."""
+
+DEADLINE_S_RANGE = (0.001, 600.0)
+"""Per-frame sandbox deadlines accepted, seconds (beyond 600 s the OS timeout overflows; below 1 ms no
+round trip to a worker can finish)."""
+
+SIM_CONTROL_HZ = 40
+"""The simulator's default control rate (``WorldConfig.control_hz``); its cameras render at most once a tick."""
+
+IMAGE_SIDE_RANGE = (32, 4096)
+"""Image width / height accepted by the simulator's cameras, pixels."""
+
 
 def _name(owner: str, field: str) -> str:
     return f"{owner}.{field}" if owner else field
@@ -136,5 +150,5 @@ def check_fields(owner: str, cls: type, values: dict[str, Any]) -> None:
         raise ConfigError(f"{_name(owner, key)} must be a {want}, got {val!r}")
 
 
-__all__ = ["SEED_MAX", "check_count", "check_fields", "check_number", "check_positive", "check_probability",
-           "check_range", "check_seed"]
+__all__ = ["DEADLINE_S_RANGE", "IMAGE_SIDE_RANGE", "RATE_HZ_RANGE", "SEED_MAX", "SIM_CONTROL_HZ", "check_count",
+           "check_fields", "check_number", "check_positive", "check_probability", "check_range", "check_seed"]

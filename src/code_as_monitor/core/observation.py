@@ -5,12 +5,14 @@ Nothing here knows about the simulator: a real robot fills the same containers.
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from code_as_monitor.core.camera import CameraModel
-from code_as_monitor.core.errors import ShapeMismatchError
+from code_as_monitor.core.errors import ObservationError, ShapeMismatchError
 
 
 @dataclass
@@ -35,6 +37,12 @@ class View:
     seg_labels: dict[int, tuple[str, str]] | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.camera, CameraModel):
+            raise ObservationError(f"View.camera must be a CameraModel, got {type(self.camera).__name__}")
+        for name in ("rgb", "depth") + (("seg",) if self.seg is not None else ()):
+            if not isinstance(getattr(self, name), np.ndarray):
+                raise ObservationError(f"view {self.camera.name!r}: {name} must be a numpy array, got "
+                                       f"{type(getattr(self, name)).__name__}")
         if self.rgb.ndim != 3 or self.rgb.shape[2] != 3:
             raise ShapeMismatchError(f"view {self.camera.name!r}: rgb must be (H, W, 3), got {self.rgb.shape}")
         hw = self.rgb.shape[:2]
@@ -102,3 +110,18 @@ class Observation:
     @property
     def view_names(self) -> list[str]:
         return list(self.views)
+
+
+def check_observation(obs: object, where: str = "Monitor.step") -> None:
+    """Raise :class:`ObservationError` naming what is wrong unless ``obs`` is an :class:`Observation` with
+    a finite time ``t`` and a dict of :class:`View` (the views check their own arrays)."""
+    if not isinstance(obs, Observation):
+        raise ObservationError(f"{where}: expected an Observation, got {type(obs).__name__}")
+    t = obs.t
+    if isinstance(t, bool) or not isinstance(t, numbers.Real) or not math.isfinite(t):
+        raise ObservationError(f"{where}: observation time t must be a finite number of seconds, got {t!r}")
+    if not isinstance(obs.views, dict):
+        raise ObservationError(f"{where}: observation at t={t} must have a dict of views, got {obs.views!r}")
+    for name, v in obs.views.items():
+        if not isinstance(v, View):
+            raise ObservationError(f"{where}: view {name!r} at t={t} is a {type(v).__name__}, not a View")

@@ -94,16 +94,20 @@ class EventLog:
 
 
 def read_jsonl(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
-    """Read a JSONL file; a truncated last line (a killed writer) is ignored, other bad lines raise RunError."""
+    """Read a JSONL file; a truncated last line (a killed writer) is ignored, other bad lines raise RunError.
+
+    A line is truncated only when the file does not end with a newline (every record is written with its
+    own) and it follows a complete one: a file whose only line is not JSON is not a results file."""
     out: list[dict[str, Any]] = []
-    lines = Path(path).read_text(encoding="utf-8").splitlines()
+    text = Path(path).read_text(encoding="utf-8")
+    lines = text.splitlines()
     for i, line in enumerate(lines):
         if not line.strip():
             continue
         try:
             out.append(json.loads(line))
         except json.JSONDecodeError as exc:
-            if i == len(lines) - 1:
+            if i == len(lines) - 1 and out and not text.endswith("\n"):
                 break
             raise RunError(f"{path}:{i + 1}: not valid JSON ({exc.msg})") from None
     return out

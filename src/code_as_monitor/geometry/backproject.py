@@ -114,12 +114,40 @@ def lift_depth(
     if max_depth <= 0:
         raise GeometryError(f"max_depth must be > 0, got {max_depth!r}")
     valid = valid_depth(depth, max_depth)
-    out = np.zeros((*depth.shape, 3))
-    rows, cols = np.nonzero(valid)
-    if len(rows):
-        z = depth[rows, cols].astype(np.float64)
-        out[rows, cols] = _lift(cols.astype(np.float64), rows.astype(np.float64), z, camera)
+    rays, origin = _world_rays(camera)
+    z = np.where(valid, depth, 0.0).astype(np.float64)
+    out = z[..., None] * rays
+    out += origin
+    out[~valid] = 0.0
     return out, valid
+
+
+_RAYS: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _world_rays(camera: CameraModel) -> tuple[np.ndarray, np.ndarray]:
+    """``(rays (H, W, 3), origin (3,))`` such that the pixel (u, v) at depth z lifts to ``z * rays[v, u] +
+    origin`` in the world frame: ``rays = R K^-1 [u, v, 1] / w`` (unit optical-axis component). Cached per
+    camera model (a replay lifts every frame of the same cameras)."""
+    key = np.array([camera.width, camera.height], dtype=np.float64).tobytes() + np.asarray(
+        camera.K, dtype=np.float64).tobytes() + np.asarray(camera.T_world_cam, dtype=np.float64).tobytes()
+    hit = _RAYS.get(key)
+    if hit is not None:
+        return hit
+    v, u = np.mgrid[0:camera.height, 0:camera.width].astype(np.float64)
+    Kinv = np.linalg.inv(camera.K)
+    x = Kinv[0, 0] * u + Kinv[0, 1] * v + Kinv[0, 2]
+    y = Kinv[1, 0] * u + Kinv[1, 1] * v + Kinv[1, 2]
+    w = Kinv[2, 0] * u + Kinv[2, 1] * v + Kinv[2, 2]
+    cam = np.stack([x / w, y / w, np.ones_like(w)], axis=-1)  # (H, W, 3) camera frame, z = 1
+    R = np.asarray(camera.T_world_cam, dtype=np.float64)[:3, :3]
+    rays = cam @ R.T
+    origin = np.asarray(camera.T_world_cam, dtype=np.float64)[:3, 3].copy()
+    rays.flags.writeable = origin.flags.writeable = False
+    if len(_RAYS) >= 16:
+        _RAYS.clear()
+    _RAYS[key] = (rays, origin)
+    return rays, origin
 
 
 def sample_depth(uv: np.ndarray, depth: np.ndarray, max_depth: float = DEFAULT_MAX_DEPTH) -> np.ndarray:

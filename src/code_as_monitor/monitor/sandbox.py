@@ -28,8 +28,9 @@ import time
 
 import numpy as np
 
+from code_as_monitor.core.checks import DEADLINE_S_RANGE, check_count, check_range
 from code_as_monitor.core.constraints import Constraint, Verdict
-from code_as_monitor.core.errors import ProgramError, SandboxError
+from code_as_monitor.core.errors import ConfigError, ProgramError, SandboxError
 from code_as_monitor.monitor import protocol
 from code_as_monitor.monitor.frames import pack
 from code_as_monitor.monitor.lifecycle import ALLOW_UNCONFINED_ENV, MAX_START_FAILURES, WorkerLifecycle
@@ -60,9 +61,12 @@ class Sandbox(WorkerLifecycle):
     def __init__(self, deadline_s: float = 0.020, memory_mb: int = 512, cpu_s: int = 600,
                  start_timeout_s: float = 20.0, load_timeout_s: float = 2.0, spares: int = 1,
                  confine: bool = True, allow_unconfined: bool | None = None) -> None:
-        if not deadline_s > 0 or memory_mb < 32 or cpu_s < 1 or spares < 1:
-            raise SandboxError(f"bad sandbox limits: deadline_s={deadline_s!r}, memory_mb={memory_mb!r}, "
-                               f"cpu_s={cpu_s!r}, spares={spares!r}")
+        try:
+            check_range("Sandbox", "deadline_s", deadline_s, *DEADLINE_S_RANGE)
+            for f, v, lo in (("memory_mb", memory_mb, 32), ("cpu_s", cpu_s, 1), ("spares", spares, 1)):
+                check_count("Sandbox", f, v, lo)
+        except ConfigError as exc:
+            raise SandboxError(f"bad sandbox limits: {exc}") from None
         if allow_unconfined is None:
             allow_unconfined = os.environ.get(ALLOW_UNCONFINED_ENV, "") == "1"
         if not confine and not allow_unconfined:

@@ -89,6 +89,8 @@ class BagSource:
     def __init__(self, path: str | Path, topics: TopicMap | None = None, objects: list[str] | None = None) -> None:
         from rosbags.typesys import Stores, get_typestore
 
+        if not isinstance(path, str | Path) or not str(path):
+            raise RecordingError(f"a bag path must be a non-empty str or Path, got {path!r}")
         self.path = Path(path)
         self.ts = get_typestore(Stores.ROS2_HUMBLE)
         reader = _open(self.path)

@@ -19,7 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from code_as_monitor.core.checks import check_positive, check_seed
+from code_as_monitor.core.checks import (
+    IMAGE_SIDE_RANGE,
+    RATE_HZ_RANGE,
+    SIM_CONTROL_HZ,
+    check_count,
+    check_range,
+    check_seed,
+)
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import Observation, RobotState, View
 from code_as_monitor.sim.cameras import (
@@ -41,7 +48,7 @@ class WorldConfig:
     """World settings. ``cameras=None`` means the default front + top views at ``width`` x ``height``."""
 
     physics_hz: int = 240
-    control_hz: int = 40
+    control_hz: int = SIM_CONTROL_HZ
     camera_hz: float = 10.0
     width: int = 320
     height: int = 240
@@ -51,10 +58,15 @@ class WorldConfig:
     defer_render: bool = False  # observe() returns views rendered when first read (see World.observe)
 
     def __post_init__(self) -> None:
-        if self.physics_hz <= 0 or self.control_hz <= 0 or self.physics_hz % self.control_hz:
+        check_count("WorldConfig", "physics_hz", self.physics_hz, 1)
+        check_count("WorldConfig", "control_hz", self.control_hz, 1)
+        if self.physics_hz % self.control_hz:
             raise ConfigError(f"WorldConfig: physics_hz ({self.physics_hz}) must be a positive multiple of "
                               f"control_hz ({self.control_hz})")
-        check_positive("WorldConfig", "camera_hz", self.camera_hz)
+        # at most one frame per control tick: a faster camera would be a slower video that claims its rate
+        check_range("WorldConfig", "camera_hz", self.camera_hz, RATE_HZ_RANGE[0], self.control_hz)
+        for side in ("width", "height"):
+            check_range("WorldConfig", side, getattr(self, side), *IMAGE_SIDE_RANGE, integer=True)
         if self.renderer not in ("tiny", "egl"):
             raise ConfigError(f"WorldConfig.renderer must be 'tiny' or 'egl', got {self.renderer!r}")
         if self.robot_visual not in ROBOT_VISUALS:
@@ -112,7 +124,8 @@ class World:
         self.add_object("table", [table], whole=[(table, -1)])
         self.robot = Panda(c, ee_kind=ee, visual=cfg.robot_visual)
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
-        self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
+        self.cameras = [SimCamera(s, c, self.renderer, self.robot.grasp_pose if s.mount == "wrist" else None)
+                        for s in specs]
 
     # --- objects ------------------------------------------------------------------------------------
     def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
@@ -252,6 +265,7 @@ class World:
         if eager:
             views: dict[str, View] = {}
             for cam in self.cameras:
+                cam.follow_mount()  # a wrist camera's extrinsics from the arm's state now
                 rgb, depth, seg = self._fetch(cam, cam._view)
                 views[cam.spec.name] = View(rgb=rgb, depth=depth, camera=cam.camera, seg=seg, seg_labels=dict(labels))
             return views
@@ -311,6 +325,9 @@ class World:
                            objects=objects, object_poses=self.object_poses())
 
     def camera_models(self) -> dict[str, Any]:
+        """Every camera's model now (a wrist camera's extrinsics from the arm's current state)."""
+        for cam in self.cameras:
+            cam.follow_mount()
         return {cam.spec.name: cam.camera for cam in self.cameras}
 
     # --- state ------------------------------------------------------------------------------------------------

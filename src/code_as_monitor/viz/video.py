@@ -169,11 +169,14 @@ class VideoWriter:
         self._gen = None
         self._size: tuple[int, int] | None = None
         self.frames = 0
+        self.ended_early: str | None = None  # why the encoder stopped before close() (an interrupt mid-frame)
 
     def write(self, frame: np.ndarray) -> None:
         """Append one (H, W, 3) uint8 frame; later frames are padded/cropped to the first one's size."""
         import imageio_ffmpeg
 
+        if self.ended_early is not None:
+            raise RunError(f"video {self.path}: the encoder stopped early ({self.ended_early}); frame not written")
         if self._gen is None:
             h, w = frame.shape[:2]
             self._size = (w, h)
@@ -188,7 +191,12 @@ class VideoWriter:
             hh, ww = min(h, frame.shape[0]), min(w, frame.shape[1])
             fixed[:hh, :ww] = frame[:hh, :ww]
             frame = fixed
-        self._gen.send(np.ascontiguousarray(frame, dtype=np.uint8))
+        try:
+            self._gen.send(np.ascontiguousarray(frame, dtype=np.uint8))
+        except BaseException as exc:  # the encoder's generator is finished: later sends would be StopIteration
+            self.ended_early = f"{type(exc).__name__} while writing frame {self.frames + 1}"
+            self._gen = None
+            raise
         self.frames += 1
 
     def close(self) -> None:

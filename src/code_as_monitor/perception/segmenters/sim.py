@@ -27,19 +27,19 @@ class SimSegmenter(Segmenter):
     def segment_many(
         self, view: View, specs: list[ElementSpec], constraint_texts: list[str] | None = None
     ) -> list[SegmentResult]:
-        """All specs from one pass over the id image: its ids are numbered once, each mask is a table lookup."""
+        """All specs from the id image: a mask is the union of ``seg == id`` over the few ids of its object or
+        part (a comparison per id is linear in the pixels; numbering the image's ids with ``np.unique``
+        sorted every pixel, which was the most expensive step of a replay)."""
         if view.seg is None or view.seg_labels is None:
             raise PerceptionError(
                 f"view {view.camera.name!r} has no ground-truth seg image; the sim segmenter needs one "
                 "(use the color or http segmenter on real images)"
             )
-        ids, inv = np.unique(view.seg, return_inverse=True)
-        inv = inv.reshape(view.seg.shape)
         out = []
         for spec in specs:
             obj_ids, part_ids = self._ids(view.seg_labels, spec)
-            inst = np.isin(ids, obj_ids)[inv]
-            part = inst.copy() if part_ids is obj_ids else np.isin(ids, part_ids)[inv]
+            inst = _union_mask(view.seg, obj_ids)
+            part = inst.copy() if part_ids is obj_ids else _union_mask(view.seg, part_ids)
             out.append(SegmentResult(inst, part, spec.kind, 1.0 if part.any() else 0.0))
         return out
 
@@ -59,3 +59,13 @@ class SimSegmenter(Segmenter):
                 f"unknown part {spec.part!r} of {spec.obj!r}; its parts: {', '.join(parts) or '(none)'}"
             )
         return obj_ids, part_ids
+
+
+def _union_mask(seg: np.ndarray, ids: list[int]) -> np.ndarray:
+    """(H, W) bool: pixels of ``seg`` whose id is one of ``ids``."""
+    if len(ids) > 16:
+        return np.isin(seg, ids)
+    mask = np.zeros(seg.shape, dtype=bool)
+    for i in ids:
+        mask |= seg == i
+    return mask

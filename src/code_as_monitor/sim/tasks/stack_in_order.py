@@ -35,6 +35,7 @@ from itertools import permutations
 
 import numpy as np
 
+from code_as_monitor.core.checks import check_range
 from code_as_monitor.core.constraints import Action
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.registry import check_positive, check_probability
@@ -43,6 +44,8 @@ from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 
 BLOCK = 0.04  # block edge, metres
 ORDER = ("red_block", "green_block", "blue_block")
+Q_MAX_CM = 50.0
+"""Largest placement noise bound accepted, cm (larger values are refused as typos, not simulated)."""
 COLORS = {"red_block": (0.85, 0.15, 0.15, 1), "green_block": (0.15, 0.75, 0.2, 1), "blue_block": (0.15, 0.3, 0.9, 1)}
 TOP_TINT = 0.12
 
@@ -102,7 +105,7 @@ class StackInOrderConfig(TaskConfig):
                               f"got {list(self.order)!r}")
         check_positive("stack-in-order", "xy_tol_cm", self.xy_tol_cm)
         check_probability("stack-in-order", "p", self.p)
-        check_positive("stack-in-order", "q", self.q, allow_zero=True)
+        check_range("stack-in-order", "q", self.q, 0.0, Q_MAX_CM)
         check_positive("stack-in-order", "drop_check_hz", self.drop_check_hz)
 
 

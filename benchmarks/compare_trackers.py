@@ -1,0 +1,83 @@
+"""CaM's cells of two ``cam bench`` results files side by side (e.g. ``--tracker sim`` against ``--tracker depth``),
+on the episodes both files finished: success, unmatched alarms per episode (false alarms in undisturbed
+conditions), recall and median latency, re-plans and wall time per episode. The metrics are
+:func:`code_as_monitor.bench.metrics.detection`'s, the ones ``cam report`` prints.
+
+Run: ``.venv/bin/python benchmarks/compare_trackers.py ORACLE.jsonl OTHER.jsonl [--names sim,depth]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from code_as_monitor.bench.metrics import detection
+
+
+def load(path: str, until: float | None = None) -> dict[tuple, dict[str, Any]]:
+    """CaM episode records without an error (finished before ``until``, epoch s), by (condition, seed, episode)."""
+    out = {}
+    with open(path) as fh:
+        for line in fh:
+            r = json.loads(line)
+            if until is not None and r.get("kind") == "episode" and (r.get("finished_at") or 0.0) >= until:
+                continue
+            if r.get("kind") == "episode" and r.get("method") == "cam" and not r.get("error"):
+                out[(r["condition"], r["seed"], r["episode"])] = r
+    return out
+
+
+def _fa(d: dict[str, Any], undisturbed: bool) -> str:
+    return f"{d['unmatched_per_ep']:.2f}" + ("" if undisturbed else " (unmatched)")
+
+
+def _recall(d: dict[str, Any]) -> str:
+    return "—" if not d["failures"] else f"{100 * d['recall']:.0f}% ({d['detected']}/{d['failures']})"
+
+
+def _lat(d: dict[str, Any]) -> str:
+    return "—" if d["latency_median"] != d["latency_median"] else f"{d['latency_median']:.2f}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("oracle")
+    ap.add_argument("other")
+    ap.add_argument("--names", default="sim,depth", help="column names of the two files")
+    ap.add_argument("--until", type=float, default=None,
+                    help="only episodes finished before this time (epoch seconds), e.g. before the code changed")
+    args = ap.parse_args(argv)
+    na, nb = args.names.split(",")
+    a, b = load(args.oracle, args.until), load(args.other, args.until)
+    common = sorted(set(a) & set(b))
+    conds = list(dict.fromkeys(k[0] for k in common))
+    print(f"| Condition | n | SR {na} | SR {nb} | {nb} - {na} (points) | FA/ep {na} | FA/ep {nb} | recall {na} | "
+          f"recall {nb} | latency s {na} / {nb} | re-plans/ep {na} / {nb} | wall s/ep {na} / {nb} |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for c in conds:
+        ks = [k for k in common if k[0] == c]
+        ra, rb = [a[k] for k in ks], [b[k] for k in ks]
+        sa = 100 * sum(r["success"] for r in ra) / len(ks)
+        sb = 100 * sum(r["success"] for r in rb) / len(ks)
+        da, db = detection(ra), detection(rb)
+        und = bool(ra[0].get("undisturbed"))
+        rp_a, rp_b = (sum(r["replans"] for r in rs) / len(rs) for rs in (ra, rb))
+        w_a, w_b = (sum(r.get("wall_time_s") or 0.0 for r in rs) / len(rs) for rs in (ra, rb))
+        print(f"| {c} | {len(ks)} | {sa:.0f} | {sb:.0f} | {sb - sa:+.0f} | {_fa(da, und)} | {_fa(db, und)} | "
+              f"{_recall(da)} | {_recall(db)} | {_lat(da)} / {_lat(db)} | {rp_a:.1f} / {rp_b:.1f} | "
+              f"{w_a:.0f} / {w_b:.0f} |")
+    ua = [a[k] for k in common if a[k].get("undisturbed")]
+    ub = [b[k] for k in common if b[k].get("undisturbed")]
+    da, db = detection([a[k] for k in common]), detection([b[k] for k in common])
+    print(f"\nepisodes in both files: {len(common)}; in one only: {len(set(a) ^ set(b))}")
+    if ua:
+        print(f"false_alarms_per_undisturbed_episode_{na}: {detection(ua)['unmatched_per_ep']:.3f} /ep (n={len(ua)})")
+        print(f"false_alarms_per_undisturbed_episode_{nb}: {detection(ub)['unmatched_per_ep']:.3f} /ep (n={len(ub)})")
+    print(f"recall_{na}: {da['detected']}/{da['failures']} failures")
+    print(f"recall_{nb}: {db['detected']}/{db['failures']} failures")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
