@@ -186,7 +186,8 @@ def test_put_in_drawer_checks(make_elements, run_program, history_of) -> None:
     sg = _chain(INSTRUCTIONS["put-in-drawer"], [None, "success", "success", "success"])[-1]
     inside = run_program(src, make_elements(sg, {**tray, ("block", ""): H - 0.13 * U + [0, 0.02, -0.04]}))
     assert inside["intray_block"][0] and inside["overtray_block"][0] and inside["freed_block"][0]
-    for where in (H + 0.06 * U + [0, 0, -0.06], H - 0.35 * U + [0, 0, 0.04], H - 0.13 * U + [0, 0.15, -0.04]):
+    for where in (H + 0.06 * U + [0, 0, -0.06], H - 0.35 * U + [0, 0, 0.04], H - 0.13 * U + [0, 0.15, -0.04],
+                  H - 0.23 * U + [0, 0, 0.04]):  # ... and on the cabinet's top just behind its front face
         out = run_program(src, make_elements(sg, {**tray, ("block", ""): where}))
         assert not out["intray_block"][0], where  # on the table in front, on the cabinet's top, beside the drawer
     # proactive: lowered over the cabinet's top (beyond the open part) is predicted to land outside

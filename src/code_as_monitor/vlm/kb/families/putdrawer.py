@@ -67,8 +67,11 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # Geometry of the tray from the URDF (see the module docstring): behind the handle along the drawer's axis
     # by 7 to 24 cm (the block's centre: 5 cm to the tray's inside front face + 2 cm half block; 26 cm to the
     # back wall's inside - 2 cm), within 9 cm of the axis sideways (11.2 cm - 2 cm), and not above the handle's
-    # height (a block in the tray has its centre 4 cm lower; one on the cabinet's top, 4 cm higher).
-    "carriedin": {"max_dist": 0.04, "back_min": 0.07, "back_max": 0.24, "half_width": 0.09, "above_max": 0.0},
+    # height by more than 5 cm (a block in the tray has its centre 4 cm lower; one released 5 cm above it falls in),
+    # and its centre ahead of the cabinet's front face (13 cm ahead of the cabinet's centre): one on the cabinet's
+    # top is behind that face (its centre 4 cm above the handle would pass the height test alone).
+    "carriedin": {"max_dist": 0.04, "back_min": 0.07, "back_max": 0.24, "half_width": 0.09, "above_max": 0.05,
+                  "face": 0.13},
     # put_in, during (proactive): once the block's centre is lower than 3.5 cm above the handle (its bottom at the
     # height of the cabinet's top, 2 cm above the handle: about to touch it), it is over the OPEN part of the
     # tray: 7 cm behind the handle or more, and its centre ahead of the cabinet's front face (13 cm ahead of the
@@ -77,7 +80,7 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # plate, it lands outside. Not higher: a noisy grasp carries the block as low as 4.3 cm above the handle
     # beside the drawer (benchmark, rlb-put-in-drawer), which must not count as landing.
     "overtray": {"approach": 0.035, "back_min": 0.07, "face": 0.13, "half_block": 0.0, "half_width": 0.09},
-    "intray": {"back_min": 0.07, "back_max": 0.24, "half_width": 0.09, "above_max": 0.0},
+    "intray": {"back_min": 0.07, "back_max": 0.24, "half_width": 0.09, "above_max": 0.05, "face": 0.13},
     # put_in, upon: the gripper has let go and moved 6 cm away from the block's centre.
     "put_freed": {"release_dist": 0.06},
 }
@@ -219,7 +222,8 @@ def put_in(item: str, cab: str) -> list[dict[str, Any]]:
                    ov, [whole(item), *tray]),
         constraint(f"intray_{item}", f"{nice(item)} is inside the drawer of {nice(cab)}: {it['back_min'] * 100:.0f} to "
                    f"{it['back_max'] * 100:.0f} cm behind the handle along the drawer's axis, within "
-                   f"{it['half_width'] * 100:.0f} cm of it sideways, below the handle's height", "upon", False, it,
+                   f"{it['half_width'] * 100:.0f} cm of it sideways, ahead of the cabinet's front face, at most "
+                   f"{it['above_max'] * 100:.0f} cm above the handle", "upon", False, it,
                    [whole(item), *tray]),
         constraint(f"freed_{item}", f"{nice(item)} is released: the grasp point at least {fr['release_dist'] * 100:.0f} cm "
                    f"from it", "upon", False, fr, [GRIP_TIP, whole(item)]),
@@ -227,9 +231,10 @@ def put_in(item: str, cab: str) -> list[dict[str, Any]]:
 
 
 # --- templates --------------------------------------------------------------------------------------------
-def _where(x: int, h: int, dr: int, fr: int) -> str:
+def _where(x: int, h: int, dr: int, fr: int, face: str) -> str:
     """Lines computing ``axis`` (3,), ``back`` (metres behind the handle along it), ``side`` (metres off it) and
-    ``above`` (metres above the handle) of element ``x``'s centre."""
+    ``above`` (metres above the handle) of element ``x``'s centre, and ``opened`` (metres from the handle back to
+    the cabinet's front face, ``face`` ahead of the frame's centre)."""
     return f"""
     axis = centroid(E[{dr}]) - centroid(E[{fr}])
     axis = np.array([axis[0], axis[1], 0.0]) / (np.linalg.norm(axis[:2]) + 1e-9)
@@ -237,14 +242,15 @@ def _where(x: int, h: int, dr: int, fr: int) -> str:
     back = -np.dot(rel, axis)
     side = np.abs(rel[0] * axis[1] - rel[1] * axis[0])
     above = rel[2]
+    opened = np.dot(centroid(E[{h}]) - centroid(E[{fr}]), axis) - {face}
 """
 
 
 def _inside_expr(th: dict[str, float]) -> tuple[str, str]:
     """(condition, margin) of "inside the tray" over ``back``, ``side``, ``above``."""
     bmin, bmax, hw, am = num(th["back_min"]), num(th["back_max"]), num(th["half_width"]), num(th["above_max"])
-    cond = f"back >= {bmin} and back <= {bmax} and side <= {hw} and above <= {am}"
-    margin = f"np.min([back - {bmin}, {bmax} - back, {hw} - side, {am} - above])"
+    cond = f"back >= {bmin} and back <= {bmax} and back <= opened and side <= {hw} and above <= {am}"
+    margin = f"np.min([back - {bmin}, {bmax} - back, opened - back, {hw} - side, {am} - above])"
     return cond, margin
 
 
@@ -253,7 +259,7 @@ def intray(c: Spec) -> str:
     x, h, dr, fr = c["element_ids"][:4]
     xn, cn = obj_name(c, 0), obj_name(c, 1)
     cond, margin = _inside_expr(c["thresholds"])
-    body = _where(x, h, dr, fr) + f"""
+    body = _where(x, h, dr, fr, num(c["thresholds"]["face"])) + f"""
     margin = {margin}
     if {cond}:
         return True, {lit(xn + " is inside the drawer of " + cn + " (%.3f m behind the handle, %.3f m off the axis, %.3f m above the handle)")} % (back, side, above), margin
@@ -269,7 +275,7 @@ def carriedin(c: Spec) -> str:
     xn = obj_name(c, 1)
     md = num(c["thresholds"]["max_dist"])
     cond, margin = _inside_expr(c["thresholds"])
-    body = _where(x, h, dr, fr) + f"""
+    body = _where(x, h, dr, fr, num(c["thresholds"]["face"])) + f"""
     d = distance(E[{tip}], centroid(E[{x}]))
     margin = np.max([{md} - d, {margin}])
     if d <= {md} or ({cond}):
@@ -284,8 +290,7 @@ def overtray(c: Spec) -> str:
     x, h, dr, fr = c["element_ids"][:4]
     th, xn = c["thresholds"], obj_name(c, 0)
     ap, bmin, face, hb, hw = (num(th[k]) for k in ("approach", "back_min", "face", "half_block", "half_width"))
-    body = _where(x, h, dr, fr) + f"""
-    opened = np.dot(centroid(E[{h}]) - centroid(E[{fr}]), axis) - {face}
+    body = _where(x, h, dr, fr, face) + f"""
     margin = np.max([above - {ap}, np.min([back - {bmin}, opened - {hb} - back, {hw} - side])])
     if above >= {ap} or (back >= {bmin} and back <= opened - {hb} and side <= {hw}):
         return True, {lit(xn + " is over the open drawer or still high (%.3f m behind the handle of an opening %.3f m long, %.3f m off the axis, %.3f m above the handle)")} % (back, opened, side, above), margin
