@@ -13,9 +13,11 @@ def test_conditions_are_the_paper_rows():
                                        "stack-q3", "sweep-half", "rope"]
     assert list(SUITES["table2"]) == ["pen-none", "pen-a", "pen-b", "pen-c", "book-none", "book-a", "book-b",
                                       "book-c", "tea-none", "tea-a", "tea-b", "tea-c", "drawer-none", "drawer-slip"]
-    assert [c.id for c in CONDITIONS if c.undisturbed] == ["stack-p0", "pen-none", "book-none", "tea-none",
-                                                           "drawer-none", "stack-reversed"]
-    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten"]
+    assert [c.id for c in CONDITIONS if c.undisturbed and c.suite != "rlbench"] == [
+        "stack-p0", "pen-none", "book-none", "tea-none", "drawer-none", "stack-reversed"]
+    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten", "drawer-ten", "rope-half"]
+    assert list(SUITES["rlbench"]) == ["rlb-open-drawer", "rlb-put-in-drawer", "rlb-screw-bulb", "rlb-turn-tap",
+                                       "rlb-drag-stick", "rlb-sweep-to-dustpan"]
     assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")
     assert BenchSpec().conditions == list(SUITES["cliport"])
     assert SUITE_DEFAULTS["table2"]["episodes"] == 10  # the paper's 10 runs per setting

@@ -71,3 +71,13 @@ def test_bad_keys_are_named(results):
         parse_key("stack-p0.3/cam/zero/1")
     with pytest.raises(RunError, match="no episode record"):
         reproduce(results, "stack-p0.3/cam/4/0")
+
+
+def test_the_run_command_carries_the_suite_replan_bound():
+    """The rlbench suite abandons a flagged episode (``max_replans`` 0): its ``cam run`` says so; others keep the
+    agents' default."""
+    from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
+    from code_as_monitor.bench.commands import run_command
+
+    assert "--max-replans 0 " in run_command("turn-tap", 7, {}, {"max_replans": 0})
+    assert f"--max-replans {DEFAULT_MAX_REPLANS} " in run_command("turn-tap", 7, {}, {})

@@ -77,3 +77,46 @@ def test_a_parameter_contradicting_the_instruction_is_a_config_error():
         make_task("stack-in-order", instruction=REVERSED, order=["red_block", "green_block"])
     with pytest.raises(ConfigError, match="two or three different blocks"):
         make_task("stack-in-order", order=["red_block", "red_block"])
+
+
+def _open_to(env, metres):
+    pb.resetJointState(env.world.body_of("drawer_cabinet"), env.task.joint, metres, 0.0,
+                       physicsClientId=env.world.client)
+
+
+def test_the_instruction_sets_how_far_the_drawer_opens():
+    with make_env("open-drawer", seed=0, instruction="open the drawer 10 cm") as env:
+        assert env.task.config.min_open == pytest.approx(0.10)
+        assert env.plan[1].args["distance"] == pytest.approx(0.12)  # the open-loop pull follows it
+        _open_to(env, 0.11)
+        assert env.evaluate().success  # 11 cm: enough for 10 cm (not for the default 15 cm)
+        _open_to(env, 0.08)
+        assert not env.evaluate().success and "10.0 cm" in env.evaluate().reason
+    assert make_task("open-drawer", instruction="open the drawer halfway").config.min_open == pytest.approx(0.125)
+    assert make_task("open-drawer").config.min_open == pytest.approx(0.15)
+    with pytest.raises(InstructionError, match="5 to 15 cm"):
+        make_task("open-drawer", instruction="pull the drawer out 20 cm")
+    with pytest.raises(ConfigError, match="contradicts the instruction"):
+        make_task("open-drawer", instruction="open the drawer 10 cm", min_open=0.12)
+    with pytest.raises(ConfigError, match="min_open"):
+        make_task("open-drawer", min_open=0.3)
+
+
+def test_the_instruction_sets_how_much_of_the_opening_the_rope_covers():
+    assert make_task("rope-close-square", instruction="close half of the opening with the rope").config.min_coverage \
+        == pytest.approx(0.5)
+    assert make_task("rope-close-square",
+                     instruction="cover the whole opening with the rope").config.min_coverage == pytest.approx(0.9)
+    with pytest.raises(InstructionError, match="cannot promise"):
+        make_task("rope-close-square", instruction="close at most half of the opening with the rope")
+
+
+def test_drawer_and_rope_goals_without_an_instruction_give_one_that_reads_back():
+    for min_open in (0.15, 0.1, 0.125, 0.06):
+        task = make_task("open-drawer", min_open=min_open)
+        assert make_task("open-drawer", instruction=task.instruction).config.min_open == pytest.approx(min_open)
+    assert make_task("open-drawer").instruction == "open the drawer by pulling its handle"
+    for cov in (0.9, 0.5, 0.8, 1.0):
+        task = make_task("rope-close-square", min_coverage=cov)
+        again = make_task("rope-close-square", instruction=task.instruction)
+        assert again.config.min_coverage == pytest.approx(cov)

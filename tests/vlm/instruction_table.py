@@ -27,7 +27,7 @@ SCENES: dict[str, list[str]] = {
 }
 
 FIXED: dict[str, list[tuple[str, dict[str, Any]]]] = {
-    "rope": [("close_shape", {"rope": "rope", "shape": "square"})],
+    "rope": [("close_shape", {"rope": "rope", "shape": "square", "coverage": 0.9})],
     "pen": [("grasp", {"obj": "pen", "part": "body"}), ("reorient", {"obj": "pen", "axis": "vertical"}),
             ("insert", {"obj": "pen", "target": "pen_holder"})],
     "book": [("grasp", {"obj": "book", "part": "cover"}), ("reorient", {"obj": "book", "axis": "vertical"}),
@@ -36,8 +36,19 @@ FIXED: dict[str, list[tuple[str, dict[str, Any]]]] = {
             ("pour", {"obj": "teapot", "target": "teacup"}), ("drain", {"obj": "teapot", "target": "teacup"}),
             ("level", {"obj": "teapot"})],
     "drawer": [("grasp", {"obj": "drawer_cabinet", "part": "handle"}),
-               ("pull", {"obj": "drawer_cabinet", "distance": 0.17})],
+               ("pull", {"obj": "drawer_cabinet", "distance": 0.17, "min_open": 0.15})],
 }
+
+
+def drawer(opening: float) -> list[tuple[str, dict[str, Any]]]:
+    """The drawer plan for an opening of ``opening`` metres: the pull goes 2 cm further."""
+    return [("grasp", {"obj": "drawer_cabinet", "part": "handle"}),
+            ("pull", {"obj": "drawer_cabinet", "distance": round(opening + 0.02, 4), "min_open": opening})]
+
+
+def rope(coverage: float) -> list[tuple[str, dict[str, Any]]]:
+    """The rope plan covering ``coverage`` of the opening (0.9: enclosed, the default)."""
+    return [("close_shape", {"rope": "rope", "shape": "square", "coverage": coverage})]
 
 
 def tower(*colours: str) -> list[tuple[str, dict[str, Any]]]:
@@ -87,6 +98,10 @@ TABLE: list[tuple[str, str, Any]] = [
     ("stack", "don't stack the blue block", REFUSE),
     ("stack", "stack four blocks", REFUSE),
     ("stack", "put the red block next to the green block", REFUSE),
+    ("stack", "stack red on top of green which is on top of blue", tower("blue", "green", "red")),
+    ("stack", "put red where blue is", REFUSE),
+    ("stack", "stack the blocks with blue first", REFUSE),
+    ("stack", "stack the red block on the green block first", REFUSE),
     # --- sweep-half: counts ------------------------------------------------------------------------------
     ("sweep", "sweep half of the blocks into the zone", sweep(16, 24, 18)),
     ("sweep", "push 10 blocks into the zone", sweep(9, 11, 10)),
@@ -105,6 +120,10 @@ TABLE: list[tuple[str, str, Any]] = [
     ("sweep", "push some blocks into the zone", REFUSE),
     ("sweep", "push half of the 30 blocks into the zone", REFUSE),
     ("sweep", "sweep half of the red blocks into the zone", REFUSE),
+    ("sweep", "push 2 dozen blocks into the zone", sweep(22, 26, 23)),
+    ("sweep", "push 10.5 blocks into the zone", REFUSE),
+    ("sweep", "push 10 12 blocks into the zone", REFUSE),
+    ("sweep", "push the block into the zone", REFUSE),
     # --- rope-close-square ------------------------------------------------------------------------------
     ("rope", "use the rope to close the opening of the square", FIXED["rope"]),
     ("rope", "close the gap in the square with the rope", FIXED["rope"]),
@@ -113,6 +132,16 @@ TABLE: list[tuple[str, str, Any]] = [
     ("rope", "put the rope around the square", REFUSE),
     ("rope", "close the opening of the square with the pen", REFUSE),
     ("rope", "use the rope to make a circle", REFUSE),
+    ("rope", "close half of the opening with the rope", rope(0.5)),
+    ("rope", "use the cord to close at least 80% of the opening of the square", rope(0.8)),
+    ("rope", "cover the whole opening with the rope", FIXED["rope"]),
+    ("rope", "close the opening of the square completely using the rope", FIXED["rope"]),
+    ("rope", "pick up the rope and lay it across the opening", FIXED["rope"]),
+    ("rope", "put the rope into the square", REFUSE),
+    ("rope", "stack the rope on the square", REFUSE),
+    ("rope", "close at most half of the opening with the rope", REFUSE),
+    ("rope", "close half of half of the opening with the rope", REFUSE),
+    ("rope", "close the opening with the rope and the cord", REFUSE),
     # --- slot-pen ---------------------------------------------------------------------------------------
     ("pen", "put the pen into the pen holder", FIXED["pen"]),
     ("pen", "drop the pen into the pencil cup", FIXED["pen"]),
@@ -140,6 +169,13 @@ TABLE: list[tuple[str, str, Any]] = [
     ("tea", "pour half the tea into the cup", REFUSE),
     ("tea", "pour the tea onto the table", REFUSE),
     ("tea", "pour the tea into the pen holder", REFUSE),
+    ("tea", "pour the tea into the cup and then pour it back", REFUSE),
+    ("tea", "pour the tea into both cups", REFUSE),
+    ("pen", "put the pen in the holder then in the cup", REFUSE),
+    ("pen", "put both pens into the holder", REFUSE),
+    ("drawer", "open both drawers", REFUSE),
+    ("sweep", "push both blocks into the zone", REFUSE),
+    ("sweep", "push half the blocks into half the zone", REFUSE),
     # --- open-drawer ------------------------------------------------------------------------------------
     ("drawer", "open the drawer by pulling its handle", FIXED["drawer"]),
     ("drawer", "slide the drawer out", FIXED["drawer"]),
@@ -148,12 +184,18 @@ TABLE: list[tuple[str, str, Any]] = [
     ("drawer", "open the cabinet drawer", FIXED["drawer"]),
     ("drawer", "close the drawer", REFUSE),
     ("drawer", "open the teapot", REFUSE),
+    ("drawer", "open the drawer halfway", drawer(0.125)),
+    ("drawer", "pull the drawer out by 4 inches", drawer(0.1016)),
+    ("drawer", "open the drawer at least 8 cm by its handle", drawer(0.08)),
+    ("drawer", "open the drawer 10 cm", drawer(0.10)),
+    ("drawer", "open the drawer fully", REFUSE),
+    ("drawer", "pull the drawer out 20 cm", REFUSE),
+    ("drawer", "open the drawer up to 10 cm", REFUSE),
+    ("drawer", "open the drawer -10 cm", REFUSE),
     # --- plain requests the kb does not read (yet): each refusal is counted, never a wrong plan ----------
     ("stack", "stack them: red first, green second and blue last", tower("red", "green", "blue")),
     ("sweep", "push the blocks into the zone until half of them are inside", sweep(16, 24, 18)),
     ("sweep", "sweep the blocks so that half of them end up in the zone", sweep(16, 24, 18)),
-    ("drawer", "open the drawer 10 cm", [("grasp", {"obj": "drawer_cabinet", "part": "handle"}),
-                                         ("pull", {"obj": "drawer_cabinet", "distance": 0.12})]),
     ("rope", "use the string to block the open end of the square", FIXED["rope"]),
     # --- nothing the kb knows ---------------------------------------------------------------------------
     ("book", "stack the pen on the book", REFUSE),
@@ -173,6 +215,11 @@ def plan_of(instruction: str, objects: list[str], limit: int = 12) -> list[tuple
         if skill == "push_into_region":
             thr = next(c["thresholds"] for c in answer["constraints"] if c["id"].startswith("reached_"))
             args["band"] = (int(thr["lower"]), int(thr["upper"]), int(thr["target"]))
+        if skill == "close_shape":
+            args["coverage"] = answer["constraints"][0]["thresholds"]["min_fraction"]
+        if skill == "pull":  # the pull's checks follow the opening asked for
+            thr = next((c["thresholds"] for c in answer["constraints"] if c["id"].startswith("pulled_")), {})
+            args["min_open"] = thr.get("min_open")
         out.append((skill, args))
         previous, feedback = answer, "success"
     raise AssertionError(f"no end after {limit} subgoals: {instruction!r}")

@@ -13,7 +13,7 @@ import math
 import random
 
 import pytest
-from instruction_table import REFUSE, SCENES, TABLE, counts, judge, sweep, tower
+from instruction_table import REFUSE, SCENES, TABLE, counts, drawer, judge, rope, sweep, tower
 
 COLOURS = ("red", "green", "blue")
 
@@ -108,7 +108,54 @@ def _sweep_cases(seed: int = 7) -> list[tuple[str, str, object]]:
     return out
 
 
-GENERATED = _stack_cases() + _sweep_cases()
+LENGTHS = (("5 cm", 0.05), ("6cm", 0.06), ("8 centimetres", 0.08), ("ten centimeters", 0.10), ("0.12 m", 0.12),
+           ("120 mm", 0.12), ("3 inches", 0.0762), ("15 cm", 0.15), ("12.5 cm", 0.125))
+DRAWER = (
+    "open the drawer {0}", "pull the drawer out {0}", "open the drawer by {0}", "pull the drawer open by {0}",
+    "grasp the handle and pull the drawer out {0}", "slide the drawer out {0} by its handle",
+    "open the drawer at least {0}", "please open the cabinet drawer about {0}", "pull out the drawer {0}",
+)
+DRAWER_BAD = ("open the drawer up to {0}", "open the drawer exactly {0}", "open the drawer no more than {0}",
+              "open the drawer less than {0}", "close the drawer {0}", "open the drawer {0} and then {0}",
+              "push the drawer in {0}")
+
+
+def _drawer_cases() -> list[tuple[str, str, object]]:
+    out: list[tuple[str, str, object]] = []
+    for words, metres in LENGTHS:
+        out += [("drawer", t.format(words), drawer(metres)) for t in DRAWER]
+        out += [("drawer", t.format(words), REFUSE) for t in DRAWER_BAD]
+    for words in ("4 cm", "16 cm", "20 cm", "1 m", "0 cm", "10 inches", "-10 cm"):
+        out += [("drawer", t.format(words), REFUSE) for t in DRAWER[:4]]
+    for t in ("open the drawer halfway", "pull the drawer halfway out", "slide the drawer open halfway"):
+        out.append(("drawer", t, drawer(0.125)))
+    for t in ("open the drawer fully", "pull the drawer all the way out", "open the drawer completely",
+              "open the drawer wide"):
+        out.append(("drawer", t, REFUSE))
+    return out
+
+
+FRACTIONS = (("half of", 0.5), ("half", 0.5), ("a third of", 1 / 3), ("two thirds of", 2 / 3),
+             ("three quarters of", 0.75), ("80% of", 0.8), ("at least 90 percent of", 0.9), ("100% of", 1.0),
+             ("about 60 % of", 0.6), ("more than half of", 0.5))
+ROPE = ("close {0} the opening with the rope", "use the rope to close {0} the opening of the square",
+        "seal {0} the gap in the square using the cord", "cover {0} the open side of the square with the string")
+
+
+def _rope_cases() -> list[tuple[str, str, object]]:
+    out: list[tuple[str, str, object]] = []
+    for words, frac in FRACTIONS:
+        out += [("rope", t.format(words), rope(round(frac, 4))) for t in ROPE]
+    for words in ("10% of", "a fifth of", "at most half of", "exactly half of", "less than half of",
+                  "120% of", "no more than 80% of"):
+        out += [("rope", t.format(words), REFUSE) for t in ROPE]
+    for t in ("put the rope into the square", "put the rope on the square", "drag the rope across the square",
+              "stack the rope on the square", "close the opening with two ropes", "put the rope next to the opening"):
+        out.append(("rope", t, REFUSE))
+    return out
+
+
+GENERATED = _stack_cases() + _sweep_cases() + _drawer_cases() + _rope_cases()
 
 
 def test_the_table_covers_every_family_with_enough_rows():

@@ -2,7 +2,8 @@
 
 A stand-in, not a VLM (see :mod:`code_as_monitor.baselines.vqa_standin`). Every rule module
 (:mod:`~code_as_monitor.baselines.vqa_standin_gripper`, :mod:`~code_as_monitor.baselines.vqa_standin_drawer`,
-:mod:`~code_as_monitor.baselines.vqa_standin_tea`) and the answerer itself import this module; it imports none of
+:mod:`~code_as_monitor.baselines.vqa_standin_tea`,
+:mod:`~code_as_monitor.baselines.vqa_standin_rlbench`) and the answerer itself import this module; it imports none of
 them, so the rules and the answerer that dispatches to them form no import circle.
 """
 
@@ -27,6 +28,9 @@ HSV_RANGES: dict[str, list[tuple[int, ...]]] = {
     "brown": [(12, 17, 110, 40, 190)],  # the drawer cabinet's body (H ~14, S ~145, V 80..140)
     "brass": [(19, 26, 150, 60)],  # the drawer's handle bar (H ~22, S ~210; its shaded face V ~130)
     "pothandle": [(12, 17, 160, 40, 210)],  # the teapot's handle fin (S ~185, V 60..110; the tea's S ~230)
+    "dirt": [(13, 17, 160, 20, 182)],  # sweep-to-dustpan's dirt (H ~15, S ~170; the pan's orange S ~215)
+    "pan": [(11, 17, 205, 60)],  # the dustpan's floor and walls (H 12..15, S ~215)
+    "white": [(0, 179, 0, 170, 30)],  # the bulb's neck (S ~6, V ~235)
 }
 # Also used by the gripper tasks: "blue" (pen body), "yellow" (pen tip), "green" (holder body), "red"
 # (book cover); by the drawer: "blue" (the drawer's front plate and tray).

@@ -26,6 +26,9 @@ colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane 
   (its pixels, laid on a horizontal plane, as round as a level square's: potlevel)? is the lid's long
   image axis tilted past the pour angle with the spout below the handle (pourtilt, draintilt)? is the
   spout blob above the cup blob (spoutover)?
+- the RLBench-style tasks (front view; rules in :mod:`~code_as_monitor.baselines.vqa_standin_rlbench`):
+  the block in the drawer's blue box, the bulb's white neck hidden under the red ball, a lever's blob lying
+  sideways (turned), the cube inside the red target's box, the brown dirt pixels in the orange pan's box.
 
 Inputs it may use: ``view.rgb`` and ``view.camera`` (intrinsics/extrinsics of the chosen view) and
 the robot's proprioceptive tip position (``obs.robot.ee_points["tip"]``), projected into the image
@@ -46,6 +49,7 @@ import numpy as np
 from code_as_monitor.baselines.vqa_pixels import HSV_RANGES, Blob, VQAAnswer, blobs, color_mask
 from code_as_monitor.baselines.vqa_standin_drawer import DrawerRules
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
+from code_as_monitor.baselines.vqa_standin_rlbench import RLBenchRules
 from code_as_monitor.baselines.vqa_standin_tea import TeaRules
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
@@ -103,6 +107,8 @@ class VQAStandin:
             jaw = None if fl is None or fr is None else float(np.linalg.norm(np.asarray(fl) - np.asarray(fr)))
             grip = Gripper(tip_uv, float(view.camera.K[1, 1]) / max(float(z[0]), 1e-6), self._tip_z, jaw)
         got = DrawerRules().answer(key, constraint, view, grip)
+        if got is None:
+            got = RLBenchRules().answer(key, constraint, view, grip)
         if got is None:
             got = TeaRules().answer(key, constraint, view, grip)
         if got is None:

@@ -44,7 +44,8 @@ def run_command(task: str, episode_seed: int, params: dict[str, Any], options: d
     words += ["--backend", str(options.get("backend", "kb")), "--segmenter", str(options.get("segmenter", "sim")),
               "--tracker", str(options.get("tracker", "sim")), "--size", f"{cfg.width}x{cfg.height}",
               "--camera-hz", f"{float(options.get('camera_hz', cfg.camera_hz)):g}",
-              "--max-replans", str(DEFAULT_MAX_REPLANS),
+              "--max-replans", str(int(options.get("max_replans") if options.get("max_replans") is not None
+                                       else DEFAULT_MAX_REPLANS)),  # the rlbench suite runs with 0
               "--deadline", f"{float(options.get('deadline_s', cfg.deadline_s)):g}"]
     if options.get("backend_options"):
         words.append("# backend options: " + ", ".join(f"{k}={v}" for k, v in options["backend_options"].items()))

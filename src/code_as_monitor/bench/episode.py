@@ -29,9 +29,10 @@ BENCH_DEADLINE_S = 0.5
 """CaM's per-frame sandbox deadline in benchmark episodes, seconds (see ``EpisodeOptions.deadline_s``)."""
 OPEN_LOOP_VIDEO_HZ = 2.0
 GT_KINDS = ("drop", "regrasped", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "opening_enclosed",
-            "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone")
+            "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped", "pour_undone",
+            "policy_failure")
 """Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
-GT_KEYS = ("count", "target", "on", "on_target", "target_offset")
+GT_KEYS = ("count", "target", "on", "on_target", "target_offset", "what", "objects")
 """Kind-specific keys kept with them: what the detection metrics read (a drop's target, where it landed)."""
 
 
@@ -50,6 +51,8 @@ class EpisodeOptions:
             ``MonitorConfig``'s default): simulated time waits for the monitor, and a wall-clock budget that
             frames overrun only when the machine is busy would make results depend on its load. A frame that
             still overruns is a fault, as on a robot.
+        max_replans: failed subgoals a closed-loop method may re-plan after (None: the agents' default); 0 is
+            the RLBench protocol's "a flagged episode is abandoned" (``bench.restarts``).
     """
 
     backend: str = "kb"
@@ -61,11 +64,15 @@ class EpisodeOptions:
     counterfactual: bool = True
     horizon_s: float = DEFAULT_HORIZON_S
     deadline_s: float = BENCH_DEADLINE_S
+    max_replans: int | None = None
 
     def __post_init__(self) -> None:
         check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
         for name in ("doremi_k_s", "camera_hz", "horizon_s", "deadline_s"):
             check_positive("EpisodeOptions", name, getattr(self, name))
+        if self.max_replans is not None and (isinstance(self.max_replans, bool) or not isinstance(self.max_replans, int)
+                                             or self.max_replans < 0):
+            raise ConfigError(f"EpisodeOptions.max_replans must be None or an integer >= 0, got {self.max_replans!r}")
         if not isinstance(self.backend_options, dict):
             raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 
@@ -123,7 +130,8 @@ def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
 
     cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend,
                            backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
-                           camera_hz=opts.camera_hz, video=run_dir is not None, deadline_s=opts.deadline_s)
+                           camera_hz=opts.camera_hz, video=run_dir is not None, deadline_s=opts.deadline_s,
+                           **({} if opts.max_replans is None else {"max_replans": opts.max_replans}))
     s = run_closed_loop(cfg, run_dir, on_event=cfs, on_env=cfs.set_env)
     ep = s["episode"]
     return {"success": s["success"], "reason": s["reason"], "sim_time_s": s["sim_time_s"],
@@ -177,7 +185,8 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
                 planner = ConstraintGenerator(backend, skills=skill_table(env.policy.skills))
                 vqa = make_vqa(opts.backend, backend, planner.usage)
                 doremi = method == "doremi"
-                cfg = DoReMiConfig(k_s=opts.doremi_k_s) if doremi else InnerMonologueConfig()
+                bound = {} if opts.max_replans is None else {"max_replans": opts.max_replans}
+                cfg = DoReMiConfig(k_s=opts.doremi_k_s, **bound) if doremi else InnerMonologueConfig(**bound)
 
                 def on_frame(obs: Any, banner: str) -> None:
                     if video is not None:

@@ -14,7 +14,8 @@ the failures that matter: what would change the episode's outcome if nothing wer
 - **Failures** (:func:`failures`) are ground-truth events of the kinds in :data:`FAILURE_KINDS`: ``drop``
   (the suction let an object go), ``tower_collapsed`` (a stacked block fell off) and the gripper tasks'
   one-shot disturbances (:mod:`code_as_monitor.sim.triggered`: ``object_moved``, ``grasp_perturbed``,
-  ``object_knocked``, ``grasp_slipped``, ``pour_undone``), except:
+  ``object_knocked``, ``grasp_slipped``, ``pour_undone``) and the RLBench-style tasks' ``policy_failure`` (the
+  noisy policy's own first failed skill; its ``objects`` are the objects that skill acted on), except:
 
   * a drop that does not change the outcome: the object came to rest on the target it was being carried to,
     within the task's placement tolerance (``block_fell.on_target``), or the suction took it again within the
@@ -59,7 +60,7 @@ from typing import Any
 import numpy as np
 
 FAILURE_KINDS = ("drop", "tower_collapsed", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped",
-                 "pour_undone")
+                 "pour_undone", "policy_failure")
 EARLY_S = 0.25
 WINDOW_S = 5.0
 MERGE_S = 1.0
@@ -133,7 +134,7 @@ def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict
     for e in _by_time(gt):
         if e["kind"] not in FAILURE_KINDS or (t_stop is not None and e["t"] > t_stop + 1e-9):
             continue
-        f = {**e, "objects": [e.get("obj", "")]}
+        f = {**e, "objects": list(e.get("objects") or [e.get("obj", "")])}
         if e["kind"] == "drop":
             res = _drop_resolution(gt, e)
             if res is not None and (res["kind"] == "regrasped" or res.get("on_target")):

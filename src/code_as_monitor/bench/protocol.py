@@ -5,8 +5,12 @@ CLIPort"): stack-in-order with drop probability p in {0, 0.15, 0.3} (no placemen
 placement noise q in {1, 2, 3} cm (no drops), sweep-half and rope-close-square. ``stack-p0`` is the
 undisturbed condition (false alarms are counted there). ``table2``: the paper's Table 2 layout
 (OmniGibson: None, (a), (b), (c) per task, 10 runs each); slot-pen, stow-book, pour-tea, plus open-drawer
-(articulated, the paper's RLBench kind of object). ``instructions``: conditions whose goal an instruction sets
-(a reversed tower, a two-block tower, 10 blocks swept), to run instructions end to end.
+(articulated, the paper's RLBench kind of object). ``rlbench``: the paper's RLBench table (supplementary,
+"Performance in RLBench"): six tasks with four cameras and a noisy policy (the learned-policy analogue, no
+disturbance); a flagged episode is abandoned and another started until each cell has its valid episodes
+(:mod:`code_as_monitor.bench.restarts`). ``instructions``: conditions whose goal an instruction sets
+(a reversed tower, a two-block tower, 10 blocks swept, a drawer opened 10 cm, half of the rope square's opening
+closed), to run instructions end to end.
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -75,10 +79,22 @@ CONDITIONS: tuple[Condition, ...] = (
               "Stack two blocks, p=0.15 (instruction)", suite="instructions"),
     Condition("sweep-ten", "sweep-half", {"instruction": "push 10 blocks into the zone"},
               "Sweep 10 of 40 blocks, 9-11 accepted (instruction)", suite="instructions"),
+    Condition("drawer-ten", "open-drawer", {"instruction": "open the drawer 10 cm", "disturbance": "slip"},
+              "Open drawer 10 cm, grasp slips off the handle (instruction)", suite="instructions"),
+    Condition("rope-half", "rope-close-square", {"instruction": "close half of the opening with the rope"},
+              "Close half of the rope square's opening (instruction)", suite="instructions"),
+    Condition("rlb-open-drawer", "open-drawer", {"noise": 1.0, "views": "rlbench"}, "Open drawer", undisturbed=True,
+              suite="rlbench"),
+    Condition("rlb-put-in-drawer", "put-in-drawer", {}, "Put in drawer", undisturbed=True, suite="rlbench"),
+    Condition("rlb-screw-bulb", "screw-bulb", {}, "Screw bulb", undisturbed=True, suite="rlbench"),
+    Condition("rlb-turn-tap", "turn-tap", {}, "Turn tap", undisturbed=True, suite="rlbench"),
+    Condition("rlb-drag-stick", "drag-stick", {}, "Drag stick", undisturbed=True, suite="rlbench"),
+    Condition("rlb-sweep-to-dustpan", "sweep-to-dustpan", {}, "Sweep to dustpan", undisturbed=True,
+              suite="rlbench"),
 )
 CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {
-    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "instructions")
+    s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "instructions", "rlbench")
 }
 SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
@@ -89,6 +105,11 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "table2": {"seeds": 1, "episodes": 10, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
     # Instructions other than the paper's: the goal parameters they map to, end to end.
     "instructions": {"seeds": 1, "episodes": 4, "methods": ("open-loop", "cam")},
+    # The paper's RLBench table: ARP alone, +DoReMi, +CaM, 1000 valid episodes per task there. ``episodes`` is the
+    # valid episodes wanted per cell; a flagged one is abandoned (``max_replans`` 0) and another drawn, up to
+    # ``max_attempts_factor`` x ``episodes`` attempts (bench.restarts).
+    "rlbench": {"seeds": 1, "episodes": 20, "methods": ("open-loop", "doremi", "cam"), "restarts": True,
+                "max_attempts_factor": 3, "options": {"max_replans": 0}},
 }
 
 METHODS: tuple[str, ...] = ("open-loop", "inner-monologue", "doremi", "cam")

@@ -322,9 +322,16 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     if out.exists() and not out.is_dir():
         raise RunError(f"report directory {out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
-    title = "Table 2 benchmark" if s["conditions"] and all(c.suite == "table2" for c in s["conditions"]) \
-        else "CLIPort benchmark"
-    md = f"# {title}\n\nResults: `{results}`\n\n" + markdown(s)
+    suites = {c.suite for c in s["conditions"]}
+    title = {"table2": "Table 2 benchmark", "rlbench": "RLBench-style benchmark"}.get(
+        suites.pop() if len(suites) == 1 else "", "CLIPort benchmark")
+    if title == "RLBench-style benchmark":
+        from code_as_monitor.bench.report_rlbench import rlbench_markdown
+
+        body_md = rlbench_markdown(s["records"]) + "\n" + versions_note(s) + "\n\n" + STANDIN_NOTE + "\n"
+    else:
+        body_md = markdown(s)
+    md = f"# {title}\n\nResults: `{results}`\n\n" + body_md
     (out / "report.md").write_text(md, encoding="utf-8")
     imgs = plots(s) if s["cells"] else {}
     videos = []

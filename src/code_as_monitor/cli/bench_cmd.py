@@ -4,6 +4,7 @@
     cam bench --results runs/bench/cliport.jsonl        # full: 5 seeds x 12 episodes (resumes)
     cam bench --methods cam,doremi --conditions stack-p0.3,stack-q3 --seeds 2 --episodes 3
     cam bench --executor ray [--ray-address auto]       # needs the `ray` extra
+    cam bench --suite rlbench --episodes 20             # RLBench table: 20 valid episodes per cell, restarts
 
 Per-episode records are appended to --results as they finish; re-running the same command skips
 finished episodes made by the same code version (episodes made by other code are run again unless
@@ -31,12 +32,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("bench", help="run the CLIPort benchmark (methods x conditions), resumable",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="1 seed x 4 episodes per condition")
-    p.add_argument("--suite", choices=("cliport", "table2", "instructions"), default="cliport",
+    p.add_argument("--suite", choices=("cliport", "table2", "instructions", "rlbench"), default="cliport",
                    help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
                         "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam); instructions: goals set by "
-                        "instructions other than the paper's (open-loop and cam)")
+                        "instructions other than the paper's (open-loop and cam); rlbench: its RLBench table (six "
+                        "tasks, a noisy policy, a flagged episode abandoned and another started)")
     p.add_argument("--seeds", type=v.count(1, 1000), default=None, help="seeds per cell (default 5, quick 1)")
-    p.add_argument("--episodes", type=v.count(1, 1000), default=None, help="episodes per seed (default 12, quick 4)")
+    p.add_argument("--episodes", type=v.count(1, 1000), default=None,
+                   help="episodes per seed (default 12, quick 4); rlbench: valid episodes per cell (default 20)")
     p.add_argument("--methods", type=v.csv, default=None, help="comma list (default: all four)")
     p.add_argument("--conditions", type=v.csv, default=None, help="comma list of condition ids (default: all)")
     p.add_argument("--results", type=v.results_file, default=None,
@@ -86,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
                               f"backend, not {args.backend!r}")
         backend_options.update(server_options(args))
     options = {"backend": args.backend, "backend_options": backend_options, "doremi_k_s": args.doremi_k,
-               "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual}
+               "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual,
+               **suite.get("options", {})}
     kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
     if args.methods:
         kw["methods"] = args.methods
@@ -105,12 +109,34 @@ def run(args: argparse.Namespace) -> int:
 
         require_ray()
     runs_dir = None if args.no_videos else args.runs_dir
+    if suite.get("restarts"):
+        return _run_restarts(spec, results, executor, runs_dir, args, suite["max_attempts_factor"] * episodes)
     # SIGTERM ends a sweep like Ctrl-C: the pool is cancelled and its workers ended, nothing half-written.
     with sigterm_as_interrupt(), _Progress(results) as (on_start, on_result):
         out = run_bench(spec, results, executor, runs_dir, on_result, on_start, keep_stale=args.keep_stale)
     stale = (f", {out['stale']} made by other code {'kept' if args.keep_stale else 'run again'}"
              if out["stale"] else "")
     print(f"{out['ran']} episode(s) run, {out['skipped']} skipped{stale}, {out['wall_s'] / 60:.1f} min -> {results}")
+    print(f"report: cam report {results}")
+    return 0
+
+
+def _run_restarts(spec: Any, results: Path, executor: Any, runs_dir: Any, args: argparse.Namespace,
+                  max_attempts: int) -> int:
+    """The RLBench protocol: rounds of attempts until each cell has ``spec.episodes`` valid episodes."""
+    from code_as_monitor.bench.restarts import run_restart_bench
+    from code_as_monitor.bench.runner import episode_records, read_results, run_bench
+    from code_as_monitor.cli.signals import sigterm_as_interrupt
+
+    with sigterm_as_interrupt(), _Progress(results) as (on_start, on_result):
+        out = run_restart_bench(
+            spec, results, spec.episodes, max_attempts,
+            run_round=lambda sp: run_bench(sp, results, executor, runs_dir, on_result, on_start,
+                                           keep_stale=args.keep_stale),
+            read=lambda: episode_records(read_results(results)))
+    short = "; ".join(f"{c}/{m}" for c, m, _ in out["incomplete"])
+    print(f"{out['rounds']} round(s) -> {results}"
+          + (f"; short of {spec.episodes} valid episodes at {max_attempts} attempts: {short}" if short else ""))
     print(f"report: cam report {results}")
     return 0
 

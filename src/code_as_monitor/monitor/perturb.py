@@ -91,10 +91,11 @@ def _with_history(state: State, T: int, t: float, start_offset: np.ndarray | Non
 TURNS_PER_ELEMENT = 3
 """Turning-history probes per line or surface element, added after the ``n`` perturbations: a check that
 compares an element's direction with its oldest one (a book turned under the gripper) needs them."""
-MAX_MEETINGS = 12
-"""Meeting probes (element a moved, since the oldest frame, to where element b is now) added after the
-turning histories: a check that an object rose with the gripper since the grasp began (a block carried
-to the suction tip) needs them."""
+MAX_MEETINGS = 30
+"""Meeting probes (element b raised, and element a moved since the oldest frame to where b is then) added
+after the turning histories: a check that an object rose with the gripper since the grasp began (a block
+carried up by the suction tip) needs them, also when the gripper starts at the object (a re-grasp). All
+ordered pairs up to this many, else a seeded sample of pairs."""
 
 MAX_PLACEMENTS = 30
 """Placement probes (element i put just above element j) added after the meetings, last: a check that a
@@ -201,12 +202,14 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     def meeting(a: int, b: int) -> Probe:
         E0, H0, Ht0 = base
         dz = float(meet_rng.uniform(-0.02, 0.02))
+        lift = float(meet_rng.uniform(0.06, 0.15))  # b rose: a carried up, even from where b started
         E = {i: p.copy() for i, p in E0.items()}
+        E[b] = E[b] + np.array([0.0, 0.0, lift])
         E[a] = E[a] + (E[b].mean(axis=0) - E[a].mean(axis=0) + np.array([0.0, 0.0, dz]))
         H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
         Ht = np.concatenate([Ht0 - _dt(Ht0), [t]])
-        return Probe(f"element {a} moved since the oldest frame to element {b} ({dz:+.2f} m above its centre)",
-                     E, H, Ht)
+        return Probe(f"element {b} raised {lift:.2f} m and element {a} moved since the oldest frame to it "
+                     f"({dz:+.2f} m above its centre)", E, H, Ht)
 
     pairs = [(a, b) for a in ids for b in ids if a != b]
     if len(pairs) > MAX_MEETINGS:

@@ -3,6 +3,11 @@
 Each camera is defined by an OpenCV-convention :class:`~code_as_monitor.core.CameraModel`
 (x right, y down, z forward; ``T_world_cam`` camera -> world). The PyBullet view matrix is derived
 from that same model, so the exported model is exactly the one used for rendering.
+
+A camera is fixed in the world (``CameraSpec.mount == "world"``) or mounted on the robot's hand
+(``"wrist"``): then its ``eye``/``target``/``up`` are in the hand's grasp frame (z the approach
+direction, x the jaws' closing axis) and its extrinsics are recomputed from the robot's forward
+kinematics before every frame, as a real wrist camera's calibration is composed with the arm's state.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from code_as_monitor.core.observation import View
 _CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 
 RENDERERS = ("tiny", "egl")
+MOUNTS = ("world", "wrist")
 
 Images = tuple[np.ndarray, np.ndarray, np.ndarray]
 """One rendered frame of a view: rgb (H, W, 3) uint8, depth (H, W) float32 metres, seg (H, W) int32."""
@@ -27,7 +33,9 @@ Images = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 @dataclass
 class CameraSpec:
-    """One camera. Positions in world metres; ``fov_y_deg`` vertical field of view in degrees."""
+    """One camera. Positions in metres, in the world frame (``mount="world"``) or in the robot hand's grasp
+    frame (``mount="wrist"``); ``fov_y_deg`` vertical field of view in degrees; ``up`` the direction that
+    points up in the image (None: world z, or +x when looking straight down)."""
 
     name: str
     eye: tuple[float, float, float]
@@ -37,8 +45,12 @@ class CameraSpec:
     fov_y_deg: float = 50.0
     near: float = 0.05
     far: float = 3.0
+    mount: str = "world"
+    up: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
+        if self.mount not in MOUNTS:
+            raise ConfigError(f"camera {self.name!r}: mount must be one of {', '.join(MOUNTS)}, got {self.mount!r}")
         if self.width <= 0 or self.height <= 0:
             raise ConfigError(f"camera {self.name!r}: size must be positive, got {self.width}x{self.height}")
         if not 0 < self.near < self.far:
@@ -47,9 +59,10 @@ class CameraSpec:
             raise ConfigError(f"camera {self.name!r}: fov_y_deg must be in [1, 170], got {self.fov_y_deg}")
 
     def model(self) -> CameraModel:
-        up = np.array([0.0, 0.0, 1.0])
+        """The camera model; for a mounted camera its ``T_world_cam`` is camera -> mount frame."""
+        up = np.array([0.0, 0.0, 1.0]) if self.up is None else np.asarray(self.up, float)
         d = np.asarray(self.target, float) - np.asarray(self.eye, float)
-        if np.linalg.norm(np.cross(d, up)) < 1e-6 * max(np.linalg.norm(d), 1e-9):
+        if self.up is None and np.linalg.norm(np.cross(d, up)) < 1e-6 * max(np.linalg.norm(d), 1e-9):
             up = np.array([1.0, 0.0, 0.0])  # straight down: image "up" points away from the robot (+x)
         return CameraModel.look_at(self.name, np.array(self.eye), np.array(self.target),
                                    self.width, self.height, self.fov_y_deg, up=up)
@@ -65,29 +78,76 @@ def default_cameras(width: int = 320, height: int = 240) -> list[CameraSpec]:
     ]
 
 
+def rlbench_cameras(width: int = 320, height: int = 240) -> list[CameraSpec]:
+    """RLBench's four views: ``front`` (across the table, facing the robot, as :func:`default_cameras`),
+    ``left_shoulder`` and ``right_shoulder`` (above and behind the robot's base, looking over its shoulders
+    at the workspace) and ``wrist`` (on the hand, 5.5 cm beside the closing axis at the palm, looking down the
+    approach direction past the fingers; its pose follows the arm every frame)."""
+    return [
+        CameraSpec("front", eye=(1.15, 0.0, 0.65), target=(0.45, 0.0, 0.0), width=width, height=height,
+                   fov_y_deg=50.0),
+        CameraSpec("left_shoulder", eye=(0.15, 0.62, 0.95), target=(0.50, -0.02, 0.0), width=width,
+                   height=height, fov_y_deg=45.0),
+        CameraSpec("right_shoulder", eye=(0.15, -0.62, 0.95), target=(0.50, 0.02, 0.0), width=width,
+                   height=height, fov_y_deg=45.0),
+        CameraSpec("wrist", eye=(0.0, 0.055, 0.0), target=(0.0, 0.0, 0.20), width=width, height=height,
+                   fov_y_deg=60.0, near=0.01, far=2.0, mount="wrist", up=(1.0, 0.0, 0.0)),
+    ]
+
+
+MountPose = Callable[[], np.ndarray]
+"""Returns the (4, 4) world pose of the frame a mounted camera is fixed to (the hand's grasp frame)."""
+
+
 @dataclass
 class SimCamera:
-    """A camera bound to a PyBullet client. ``render`` returns a core :class:`View`."""
+    """A camera bound to a PyBullet client. ``render`` returns a core :class:`View`.
+
+    ``mount_pose``: for a camera on the robot (``spec.mount != "world"``), the function giving its mount
+    frame's current world pose; ``camera`` (the model a View carries) is then recomputed before every frame.
+    """
 
     spec: CameraSpec
     client: int
     renderer: str = "tiny"
+    mount_pose: MountPose | None = None
     camera: CameraModel = field(init=False)
     _view: list[float] = field(init=False)
     _proj: list[float] = field(init=False)
+    _T_mount_cam: np.ndarray | None = field(init=False, default=None)
     frames: int = field(init=False, default=0)  # images rendered so far
 
     def __post_init__(self) -> None:
         import pybullet as pb
 
+        if (self.spec.mount != "world") != (self.mount_pose is not None):
+            raise ConfigError(f"camera {self.spec.name!r}: a {self.spec.mount}-mounted camera "
+                              f"{'needs' if self.mount_pose is None else 'takes no'} mount_pose")
         self.camera = self.spec.model()
-        T_gl = _CV_TO_GL @ self.camera.T_cam_world
-        self._view = T_gl.flatten(order="F").tolist()  # column-major, as OpenGL wants
+        if self.mount_pose is not None:
+            self._T_mount_cam = self.camera.T_world_cam.copy()
+            self.follow_mount()
+        self._set_view()
         s = self.spec
         self._proj = list(pb.computeProjectionMatrixFOV(s.fov_y_deg, s.width / s.height, s.near, s.far,
                                                         physicsClientId=self.client))
         if self.renderer not in RENDERERS:
             raise ConfigError(f"unknown renderer {self.renderer!r}; choose one of: {', '.join(RENDERERS)}")
+
+    def _set_view(self) -> None:
+        T_gl = _CV_TO_GL @ self.camera.T_cam_world
+        self._view = T_gl.flatten(order="F").tolist()  # column-major, as OpenGL wants
+
+    def follow_mount(self) -> None:
+        """Recompute a mounted camera's extrinsics from its mount's current pose (no-op for a world camera)."""
+        if self.mount_pose is None or self._T_mount_cam is None:
+            return
+        T = np.asarray(self.mount_pose(), float) @ self._T_mount_cam
+        U, _, Vt = np.linalg.svd(T[:3, :3])  # re-orthonormalise the float32 quaternion's rotation
+        T[:3, :3] = U @ Vt
+        c = self.camera
+        self.camera = CameraModel(c.name, c.width, c.height, c.K, T)
+        self._set_view()
 
     def render(self, seg_labels: dict[int, tuple[str, str]]) -> View:
         """Render one frame now.
@@ -96,6 +156,7 @@ class SimCamera:
         (0 = no reading, i.e. the far plane), seg (H, W) int32 with PyBullet's
         ``objectUniqueId + ((linkIndex + 1) << 24)`` ids (-1 background) and ``seg_labels``.
         """
+        self.follow_mount()
         rgb, depth, seg = self.images(self._view)
         return View(rgb=rgb, depth=depth, camera=self.camera, seg=seg, seg_labels=dict(seg_labels))
 
@@ -105,6 +166,7 @@ class SimCamera:
         :class:`DeferredView`); ``clock()`` is the world's tick counter at the time of reading;
         ``fetch(view_matrix)`` gives the images (default :meth:`images`; a world passes its cache)."""
         get = fetch or self.images
+        self.follow_mount()  # a mounted camera's pose is the one of this instant, fixed here
         view = self._view
         return DeferredView(self.camera, dict(seg_labels), lambda: get(view), clock)
 

@@ -40,6 +40,7 @@ class DrawerSkills:
     world: Any
     task: Any
     mover: Any
+    noise: Any
 
     def _pull(self, obj: str, distance: float = 0.17) -> Iterator[None]:
         """Pull the grasped handle ``distance`` metres along the drawer's opening axis, let go and retreat."""
@@ -51,11 +52,13 @@ class DrawerSkills:
             raise SimError(f"pull: task {getattr(self.task, 'name', '?')!r} has no drawer to pull")
         u = np.asarray(pull_axis(self.world, obj), float)
         u = u / max(float(np.linalg.norm(u)), 1e-9)
+        d *= 1.0 + self.noise.normal("pull_rel")  # a learned policy's imprecision (exact by default)
         start = self.mover.tip.copy()
         end = start + d * u
         yield from self.mover.move(end, speed=PULL_SPEED)
         yield from self.mover.wait(0.1)
         self._grip_open()  # type: ignore[attr-defined]
         yield from self.mover.wait(0.2)
+        self._judge("pull", obj=obj)  # type: ignore[attr-defined]
         yield from self.mover.move([*end[:2], end[2] + PULL_RETREAT], speed=SLOW_SPEED * 2)
         yield from self.mover.move(PULL_PARK, pitch=0.0)

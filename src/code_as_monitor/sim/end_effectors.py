@@ -272,11 +272,14 @@ class Gripper(Suction):
 def _half_extent_along(client: int, body: int, link: int, axis: np.ndarray) -> float | None:
     """Half the extent (metres) of ``body``'s ``link`` along the world direction ``axis`` (3,), from its
     collision boxes in their own orientation (a yawed bar is as thin as it is, unlike its world bounding
-    box); None unless all are boxes."""
+    box) and spheres (their radius: a ball is as wide every way). Other shapes (PyBullet loads a URDF
+    cylinder as a mesh) are left out when a box or a sphere is there (a lamp's neck under its ball, a tap's
+    hub beside its lever); None when there is none."""
     import pybullet as pb
 
-    shapes = pb.getCollisionShapeData(body, link, physicsClientId=client)
-    if not shapes or any(sh[2] != pb.GEOM_BOX for sh in shapes):
+    shapes = [sh for sh in pb.getCollisionShapeData(body, link, physicsClientId=client)
+              if sh[2] in (pb.GEOM_BOX, pb.GEOM_SPHERE)]
+    if not shapes:
         return None
     if link < 0:
         fpos, forn = pb.getBasePositionAndOrientation(body, physicsClientId=client)
@@ -285,8 +288,12 @@ def _half_extent_along(client: int, body: int, link: int, axis: np.ndarray) -> f
     lo, hi = np.inf, -np.inf
     for sh in shapes:  # the shape frames are given in the link's inertial frame
         pos, orn = pb.multiplyTransforms(fpos, forn, sh[5], sh[6])
-        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
-        centre, half = float(np.dot(pos, axis)), float(np.abs(R.T @ axis) @ np.asarray(sh[3]) / 2)
+        if sh[2] == pb.GEOM_SPHERE:
+            half = float(sh[3][0])
+        else:
+            R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+            half = float(np.abs(R.T @ axis) @ np.asarray(sh[3]) / 2)
+        centre = float(np.dot(pos, axis))
         lo, hi = min(lo, centre - half), max(hi, centre + half)
     return (hi - lo) / 2
 

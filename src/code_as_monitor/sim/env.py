@@ -16,6 +16,7 @@ Usage from outside (the agent)::
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -65,7 +66,12 @@ def make_env(name: str, seed: int = 0, world_config: WorldConfig | None = None, 
     import pybullet as pb
 
     task = make_task(name, **config)
-    world = World(world_config, seed=seed, ee=task.ee_kind)
+    wc = world_config or WorldConfig()
+    if wc.cameras is None:  # the task's own views (RLBench's four), else the world's default two
+        specs = task.camera_specs(wc.width, wc.height)
+        if specs is not None:
+            wc = dataclasses.replace(wc, cameras=specs)
+    world = World(wc, seed=seed, ee=task.ee_kind)
     try:
         task.load_scene(world)
         task.reset(world)

@@ -65,6 +65,8 @@ class GripperSkills:
     world: Any
     task: Any
     mover: Any
+    noise: Any
+    grasped_part: dict[str, str]
 
     # --- helpers -------------------------------------------------------------------------------------
     def _axis(self, name: str) -> np.ndarray:
@@ -81,11 +83,21 @@ class GripperSkills:
 
     # --- skills ----------------------------------------------------------------------------------------
     def _grasp(self, obj: str, part: str = "") -> Iterator[None]:
-        name = f"{obj}/{part}" if part else obj
         if part and part not in self.world.objects[obj].parts:
             raise SimError(f"grasp: {obj!r} has no part {part!r}")
-        lo, hi = self._aabb(name)  # type: ignore[attr-defined]
-        centre = (lo + hi) / 2
+        intended = part
+        confusable = getattr(self.task, "confusable", None)  # a part alike enough to be taken for this one
+        if confusable is not None and confusable(obj, part) and self.noise.chance("wrong_target"):
+            part = confusable(obj, part)
+        self.grasped_part[obj] = part
+        name = f"{obj}/{part}" if part else obj
+        grasp_centre = getattr(self.task, "grasp_centre", None)
+        if grasp_centre is not None:
+            centre = np.asarray(grasp_centre(self.world, obj, part), float)
+        else:
+            lo, hi = self._aabb(name)  # type: ignore[attr-defined]
+            centre = (lo + hi) / 2
+        hi = self._aabb(name)[1]  # type: ignore[attr-defined]
         # a task may name the direction to close across (a drawer's handle bar); else the object's long axis
         grasp_axis = getattr(self.task, "grasp_axis", None)
         u = self._axis(obj) if grasp_axis is None else np.asarray(grasp_axis(self.world, obj, part), float)
@@ -93,6 +105,13 @@ class GripperSkills:
         # (the one nearest the current yaw: the last wrist joint has limits)
         yaw = float(np.arctan2(u[0], -u[1]))
         yaw = self.mover.yaw + wrap_angle(2 * (yaw - self.mover.yaw)) / 2
+        grasp_yaw = getattr(self.task, "grasp_yaw", None)  # a task may need one of the two exactly (a bulb to turn)
+        exact = None if grasp_yaw is None else grasp_yaw(self.world, obj, part, self.mover.yaw)
+        if exact is not None:
+            yaw = float(exact)
+        centre[:2] += self.noise.offset("grasp_xy")  # a learned policy's imprecision (exact by default)
+        centre[2] += self.noise.normal("grasp_z")
+        yaw += self.noise.normal("grasp_yaw")
         if self.world.robot.ee.active:
             self._grip_open()
         top = max(GRIP_CARRY_Z, hi[2] + GRIP_APPROACH)
@@ -103,6 +122,7 @@ class GripperSkills:
         yield from self.mover.wait(0.1)
         self._grip_close()
         yield from self.mover.wait(0.1)
+        self._judge("grasp", obj=obj, part=part, intended=intended)  # type: ignore[attr-defined]
         att = self.world.robot.ee.attachment()
         if att is not None and att[3] >= 0:  # a link of a fixed-base articulated body (a handle): no lift
             return

@@ -30,6 +30,7 @@ from code_as_monitor.sim.drawer_skills import DRAWER_SKILLS, DrawerSkills
 from code_as_monitor.sim.gripper_skills import GRIPPER_SKILLS, GripperSkills
 from code_as_monitor.sim.motion import PUSH_SPEED, SLOW_SPEED, Mover, wrap_angle
 from code_as_monitor.sim.pour_skills import POUR_SKILLS, PourSkills
+from code_as_monitor.sim.rlbench_skills import RLBENCH_SKILLS, RLBenchSkills
 from code_as_monitor.sim.world import World
 
 PARK = (0.32, -0.33, 0.30)  # tip position out of the cameras' way after a placement, metres
@@ -47,11 +48,17 @@ SKILLS: dict[str, tuple[tuple[str, ...], str]] = {
     **GRIPPER_SKILLS,
     **POUR_SKILLS,
     **DRAWER_SKILLS,
+    **RLBENCH_SKILLS,
 }
 
 
-class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
-    """Oracle pick-and-place / push / rope-adjustment policy for one world and task."""
+class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills, RLBenchSkills):
+    """Oracle pick-and-place / push / rope-adjustment policy for one world and task.
+
+    ``noise``: the task's action noise (``task.action_noise(seed)``; the RLBench-style tasks' learned-policy
+    analogue, :mod:`code_as_monitor.sim.action_noise`), exact for every other task. ``grasped_part``: object ->
+    the part the last grasp aimed at (a wrong target when the noise picked the other one).
+    """
 
     def __init__(self, world: World, task: Any) -> None:
         self.world = world
@@ -60,6 +67,8 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
         self._gen: Iterator[None] | None = None
         self.action: Action | None = None
         self.halted = False
+        self.noise = task.action_noise(world.seed)
+        self.grasped_part: dict[str, str] = {}
 
     # --- Policy protocol ----------------------------------------------------------------------------
     def start(self, action: Action) -> None:
@@ -104,6 +113,19 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills):
     @property
     def done(self) -> bool:
         return self._gen is None
+
+    def _judge(self, skill: str, **args: Any) -> None:
+        """Ask the task whether ``skill`` did what it should (``task.judge(world, skill, args) -> what | None``) and
+        log the episode's first failure as a ``policy_failure`` event (``what``, ``skill``, ``objects``: the objects
+        the skill acted on): later ones are its consequences. Tasks without ``judge`` log nothing."""
+        judge = getattr(self.task, "judge", None)
+        if judge is None:
+            return
+        what = judge(self.world, skill, args)
+        if what and not self.world.events.of_kind("policy_failure"):
+            objects = [args[k] for k in ("obj", "target", "goal") if isinstance(args.get(k), str) and args[k]]
+            self.world.events.log(self.world.t, "policy_failure", args.get("obj", ""), what=what, skill=skill,
+                                  objects=objects)
 
     @property
     def skills(self) -> tuple[str, ...]:

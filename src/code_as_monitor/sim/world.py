@@ -124,7 +124,8 @@ class World:
         self.add_object("table", [table], whole=[(table, -1)])
         self.robot = Panda(c, ee_kind=ee, visual=cfg.robot_visual)
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
-        self.cameras = [SimCamera(s, c, self.renderer) for s in specs]
+        self.cameras = [SimCamera(s, c, self.renderer, self.robot.grasp_pose if s.mount == "wrist" else None)
+                        for s in specs]
 
     # --- objects ------------------------------------------------------------------------------------
     def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
@@ -264,6 +265,7 @@ class World:
         if eager:
             views: dict[str, View] = {}
             for cam in self.cameras:
+                cam.follow_mount()  # a wrist camera's extrinsics from the arm's state now
                 rgb, depth, seg = self._fetch(cam, cam._view)
                 views[cam.spec.name] = View(rgb=rgb, depth=depth, camera=cam.camera, seg=seg, seg_labels=dict(labels))
             return views
@@ -323,6 +325,9 @@ class World:
                            objects=objects, object_poses=self.object_poses())
 
     def camera_models(self) -> dict[str, Any]:
+        """Every camera's model now (a wrist camera's extrinsics from the arm's current state)."""
+        for cam in self.cameras:
+            cam.follow_mount()
         return {cam.spec.name: cam.camera for cam in self.cameras}
 
     # --- state ------------------------------------------------------------------------------------------------

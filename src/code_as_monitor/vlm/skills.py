@@ -61,6 +61,26 @@ DEFAULT_SKILLS: dict[str, str] = {
         'args {"obj": name}: carry the held object to a free spot of the table away from the cup, lower it until '
         "it almost touches, open the gripper, lift"
     ),
+    "put_in": (
+        'args {"obj": name, "target": name}: carry the held object above the open part of the target drawer\'s '
+        "tray, lower it to just above the tray's floor, open the gripper, retreat"
+    ),
+    "screw": (
+        'args {"obj": name, "turns": number}: turn the grasped bulb clockwise into its socket in a few strokes '
+        "(re-grasping between them), open the gripper, retreat"
+    ),
+    "turn": (
+        'args {"obj": name, "part": handle, "angle": degrees}: turn the grasped tap handle about its hinge by the '
+        "angle, open the gripper, retreat"
+    ),
+    "drag": (
+        'args {"obj": name, "target": name, "goal": name}: lower the held stick on the table beyond the target '
+        "object and pull it until the object is on the goal, put the stick down, retreat"
+    ),
+    "sweep": (
+        'args {"obj": name, "target": name}: lower the held broom\'s head behind the loose pieces and push them '
+        "into the target (a dustpan), lift, keep holding the broom"
+    ),
 }
 """Skill name -> one-line description of its arguments and behaviour."""
 

@@ -109,6 +109,18 @@ class Task:
         """Disturbance objects configured for this task, seeded from ``seed`` (default: none)."""
         return []
 
+    def action_noise(self, seed: int) -> Any:
+        """The policy's action noise for an episode seeded ``seed`` (``sim.action_noise.ActionNoise``); exact by
+        default (the RLBench-style tasks perturb their skills as a learned policy would)."""
+        from code_as_monitor.sim.action_noise import NO_NOISE
+
+        return NO_NOISE
+
+    def camera_specs(self, width: int, height: int) -> list[Any] | None:
+        """The task's own cameras (``sim.cameras.CameraSpec`` list) when the world config names none; None: the
+        world's default views (front and top)."""
+        return None
+
     def settle_after_plan(self) -> bool:
         """True when the open-loop episode ends once the plan is done (False: run to the time limit)."""
         return True

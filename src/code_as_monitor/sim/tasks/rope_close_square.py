@@ -28,6 +28,8 @@ from code_as_monitor.core.registry import check_positive, check_probability
 from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 
 HALF = 0.1  # square inner half-size, metres (assets/square.urdf)
+INSTRUCTION = "use the rope to close the opening of the square"
+DEFAULT_COVERAGE = 0.9  # the simulator's "enclosed": 90 % of the samples along the opening
 CORNERS = {"corner_0": (HALF, HALF), "corner_1": (-HALF, HALF), "corner_2": (-HALF, -HALF), "corner_3": (HALF, -HALF)}
 
 
@@ -49,7 +51,7 @@ class RopeCloseSquareConfig(TaskConfig):
     bead_radius: float = 0.008
     spacing: float = 0.017
     cover_tol: float = 0.025
-    min_coverage: float = 0.9
+    min_coverage: float = DEFAULT_COVERAGE
     n_samples: int = 11
 
     def __post_init__(self) -> None:
@@ -65,9 +67,19 @@ class RopeCloseSquareConfig(TaskConfig):
             raise ConfigError(f"rope-close-square.n_samples must be >= 2, got {self.n_samples}")
 
 
+def describe_coverage(min_coverage: float) -> str:
+    """The instruction for a coverage goal (the instruction grammar reads it back to the same fraction)."""
+    if abs(min_coverage - DEFAULT_COVERAGE) < 1e-9:
+        return INSTRUCTION
+    return f"use the rope to close {round(min_coverage * 100, 2):g} % of the opening of the square"
+
+
 class RopeCloseSquare(Task):
     ee_kind = "suction"
-    instruction = "use the rope to close the opening of the square"
+
+    @property
+    def instruction(self) -> str:  # type: ignore[override]
+        return self.config.instruction or describe_coverage(self.config.min_coverage)
 
     def __init__(self, config: RopeCloseSquareConfig) -> None:
         super().__init__(config)

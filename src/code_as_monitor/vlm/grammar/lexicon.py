@@ -15,7 +15,8 @@ det       a determiner ("the", "a", "its", ...)
 prep      a spatial relation, canonical: ``on`` (on, onto, on top of, atop), ``under`` (under, beneath,
           underneath), ``above``, ``below``, ``into`` (into, in, inside), ``from``, ``with`` (with,
           using), ``out_of``, ``to``, ``of``, ``by``, ``at``, ``off``, ``next_to``, ``between``, ...
-pos       a place in a stack: ``bottom``, ``middle``, ``top`` ("at the bottom", "as the base", "on top")
+pos       a place in a stack: ``bottom``, ``middle``, ``top`` ("at the bottom", "as the base", "on top"), or a
+          side: ``left``, ``right`` ("the left tap", "the tap on the right")
 ord       an ordinal: ``1`` (first), ``2`` (second), ... ; ``-1`` (last)
 dir       the direction of a listing: ``up`` ("from bottom to top") or ``down`` ("from top to bottom")
 sep       a separator between parts: ``then`` (then, after that, next, finally), ``and``, ``,``, ``;``,
@@ -55,6 +56,13 @@ NOUNS: dict[str, str] = {
     # tea
     "tea": "tea", "teapot": "teapot", "kettle": "teapot", "pot": "pot", "teacup": "teacup", "mug": "teacup",
     "cup": "cup",
+    # RLBench-style tasks
+    "item": "item", "object": "item", "thing": "item",
+    "bulb": "bulb", "lightbulb": "bulb", "lamp": "lamp", "socket": "socket", "fitting": "socket",
+    "tap": "tap", "faucet": "tap", "lever": "handle",
+    "stick": "stick", "rod": "stick", "pole": "stick",
+    "dirt": "dirt", "dust": "dirt", "debris": "dirt", "crumb": "dirt", "particle": "dirt",
+    "dustpan": "dustpan", "broom": "broom", "brush": "broom",
     # the scene
     "table": "table", "tabletop": "table", "desk": "table",
 }
@@ -71,6 +79,8 @@ MULTI_NOUNS: dict[tuple[str, ...], str] = {
     ("tea", "pot"): "teapot", ("tea", "cup"): "teacup", ("tea", "mug"): "teacup",
     ("chest", "of", "drawers"): "cabinet", ("drawer", "handle"): "handle", ("drawer", "cabinet"): "cabinet",
     ("table", "top"): "table",
+    ("light", "bulb"): "bulb", ("bulb", "socket"): "socket", ("lamp", "socket"): "socket",
+    ("dust", "pan"): "dustpan", ("water", "tap"): "tap",
     ("target", "zone"): "zone", ("target", "area"): "zone", ("target", "region"): "zone",
     ("goal", "zone"): "zone", ("goal", "area"): "zone", ("goal", "region"): "zone", ("marked", "zone"): "zone",
     ("marked", "area"): "zone", ("marked", "region"): "zone", ("marked", "square"): "zone",
@@ -91,6 +101,7 @@ VERBS: dict[str, str] = {
     "use": "use", "drag": "drag", "arrange": "arrange", "lay out": "arrange",
     "open": "open", "pull": "pull", "draw": "pull", "yank": "pull",
     "pour": "pour", "serve": "pour", "tip": "pour", "decant": "pour", "empty": "pour",
+    "screw": "screw", "turn": "turn", "rotate": "turn", "twist": "turn",
     "shelve": "shelve", "stow": "stow", "store": "stow", "return": "stow", "file": "stow", "tidy": "stow",
 }
 """Verb lemma -> canonical action."""
@@ -120,10 +131,16 @@ POSITIONS: dict[tuple[str, ...], str] = {
     ("on", "the", "very", "top"): "top", ("in", "the", "middle"): "middle", ("in", "the", "center"): "middle",
     ("in", "the", "centre"): "middle", ("middle",): "middle", ("in", "between"): "middle",
     ("at", "bottom"): "bottom", ("on", "bottom"): "bottom", ("at", "top"): "top", ("in", "middle"): "middle",
+    ("on", "the", "left"): "left", ("on", "the", "right"): "right", ("left", "hand"): "left",
+    ("right", "hand"): "right",
     ("at", "the", "bottom", "of", "the", "tower"): "bottom", ("at", "the", "top", "of", "the", "tower"): "top",
     ("in", "the", "middle", "of", "the", "tower"): "middle", ("on", "top", "of", "the", "tower"): "top",
 }
-"""Places in a stack. ``("on", "the", "table")`` is a position too (at the bottom, resting on the table)."""
+"""Places in a stack. ``("on", "the", "table")`` is a position too (at the bottom, resting on the table).
+``left``/``right`` name one of a pair side by side ("the left tap", "the tap on the right"); the single words
+"left" and "right" are positions only after a determiner or a colour (else "left" is the verb "leave")."""
+
+SIDES = ("left", "right")
 
 DIRECTIONS: dict[tuple[str, ...], str] = {
     ("from", "bottom", "to", "top"): "up", ("from", "the", "bottom", "to", "the", "top"): "up",
@@ -156,7 +173,7 @@ COMPARATORS: dict[tuple[str, ...], str] = {
 
 QUANTIFIERS: dict[tuple[str, ...], str] = {
     ("all",): "all", ("all", "of"): "all", ("every",): "all", ("each",): "all", ("each", "of"): "all",
-    ("both",): "all", ("whole",): "all", ("entire",): "all", ("all", "the"): "all", ("none",): "none",
+    ("both",): "both", ("whole",): "all", ("entire",): "all", ("all", "the"): "all", ("none",): "none",
     ("no",): "none", ("several",): "some", ("some",): "some", ("a", "few"): "some", ("a", "couple", "of"): "some",
     ("many",): "some", ("most",): "some", ("any",): "some",
 }
@@ -224,7 +241,7 @@ FILLERS: set[tuple[str, ...]] = {
     "is", "to"), ("then", "you"), ("let", "us"), ("let's",), ("for", "me"), ("as", "follows"), ("order",),
     ("ordered",), ("sorted",), ("one", "by", "one"), ("one", "at", "a", "time"), ("with",), ("there",),
     ("like", "this"), ("to",), ("of",), ("way",), ("all", "together"), ("up", "to", "you"), ("back",), ("away",),
-    ("for", "me"), ("for", "us"), ("properly",), ("again",),
+    ("for", "me"), ("for", "us"), ("properly",), ("again",), ("which", "is"), ("which", "are"),
 }
 """Phrases that change nothing about the task. ``with``, ``to`` and ``of`` are fillers only where the parser
 finds no phrase after them (``with`` before a position, ``to`` before a verb)."""

@@ -17,7 +17,7 @@ class Quantity:
 
     Attributes:
         kind: ``number`` ("10 blocks"), ``fraction`` ("half of the blocks", "25 %"), ``all`` ("all", "every",
-            "both"), ``some`` ("some", "a few") or ``none`` ("no", "none").
+            "both": ``of_total`` 2), ``some`` ("some", "a few") or ``none`` ("no", "none").
         value: the count, or the fraction in [0, 1]; 1.0 for ``all``.
         bound: ``plain``, ``about``, ``exact``, ``at_least``, ``at_most``, ``more``, ``fewer`` or ``between``.
         high: the upper value of a ``between`` range ("between 6 and 10").
@@ -44,7 +44,8 @@ class Phrase:
         colour: its colour adjective, ``""`` if none.
         quantity: its quantity, or None.
         plural, definite: "blocks"; "the ...".
-        position: ``bottom``, ``middle``, ``top`` or ``table`` ("red at the bottom", "the top block").
+        position: ``bottom``, ``middle``, ``top`` or ``table`` ("red at the bottom", "the top block"), or a side
+            ``left``/``right`` ("the left tap").
         ordinal: 1, 2, ... or -1 (last) with ``ordinal_from`` ``bottom`` or ``top`` ("the second from the top").
         pronoun: ``it`` or ``them`` for a pronoun; ``ref`` is then the index of the phrase it stands for.
         verb: the canonical verb of its clause (``""`` if none).
@@ -101,10 +102,12 @@ class Listing:
 
 @dataclass(frozen=True)
 class Measure:
-    """A length ("10 cm"), in metres; ``text`` the words."""
+    """A length ("10 cm"), in metres; ``text`` the words; ``bound`` as in :class:`Quantity` (``plain``,
+    ``about``, ``exact``, ``at_least``, ``at_most``, ``more``, ``fewer``): "at least 10 cm", "up to 10 cm"."""
 
     metres: float
     text: str
+    bound: str = "plain"
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ class _NP:
     cmp: str = ""
     nums: list[float] = field(default_factory=list)
     frac: float | None = None
+    fracs: int = 0  # fractions read: "half of half of the opening" has two (no one fraction)
     of_seen: bool = False
     nums_before_of: int = 0
     colour: str = ""
@@ -98,13 +99,19 @@ class _Parser:
         bound = np.cmp or "plain"
         if np.quant == "none":
             return Quantity("none", 0.0, bound, text=words)
+        if np.quant == "both":  # all of two: a family with another count refuses it by ``of_total``
+            return Quantity("all", 1.0, bound, of_total=2.0, text=words)
         after_of = np.nums[np.nums_before_of:] if np.of_seen else []
         total = after_of[-1] if after_of else None
+        if np.fracs > 1:
+            return Quantity("some", 0.0, "ambiguous", text=words)  # "half of half of": no one fraction read
         if np.frac is not None:
             return Quantity("fraction", np.frac, bound, of_total=total, text=words)
         if np.quant == "all" and np.nums:  # "all 40 blocks", "all of the 40 blocks", "every one of the blocks"
             return Quantity("all", 1.0, bound, of_total=total if np.of_seen else np.nums[-1], text=words)
         before = np.nums[: np.nums_before_of] if np.of_seen else np.nums
+        if len(before) > 1 and bound != "between":
+            return Quantity("some", 0.0, "ambiguous", text=words)  # "10 12 blocks": no one count
         if before and (np.noun or np.colour or np.of_seen or np.det == "" or np.quant):
             high = before[1] if bound == "between" and len(before) > 1 else None
             return Quantity("number", before[0], bound, high=high, of_total=total, text=words)
@@ -137,6 +144,7 @@ class _Parser:
         elif tok.kind == "num":
             np.nums.append(float(tok.value))  # type: ignore[arg-type]
         elif tok.kind == "frac":
+            np.fracs += 1
             np.frac = float(tok.value)  # type: ignore[arg-type]
         elif tok.kind == "colour":
             np.colour = str(tok.value)
@@ -188,7 +196,10 @@ class _Parser:
         np = self.np
         if np is not None and len(np.nums) == 1 and not (np.noun or np.colour or np.frac is not None):
             self.np = None
-            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join([*np.words, tok.text])))
+            bound, words = np.cmp or "plain", [*np.words, tok.text]
+            if self.prep is not None and self.prep[0] == "up_to":
+                bound, words = "at_most", [self.prep[2], *words]  # "up to 10 cm"
+            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join(words), bound))
             if self.prep is not None and self.prep[0] in ("by", "to", "up_to"):
                 self.prep = None  # "by 10 cm"
             return
@@ -256,6 +267,8 @@ class _Parser:
     # --- after the pass ------------------------------------------------------------------------------------
     def finish(self) -> None:
         ps = self.phrases
+        trailing = [w for w in self.seps.get(len(ps), []) if w in ("first", "then")]
+        self.stray.extend(trailing)  # "stack the blocks with blue first": an order word with nothing after it
         for p in ps:  # pronouns
             if p.pronoun:
                 want_plural = p.pronoun == "them"

@@ -37,6 +37,7 @@ def normalise(text: str) -> list[str]:
     for a, b in _CONTRACTIONS:
         s = s.replace(a, b)
     s = re.sub(r"(\d)\s*-\s*(\d)", r"\1 to \2", s)  # "6-10 blocks"
+    s = re.sub(r"(^|[^\w])-\s*(?=\d)", r"\1 minus ", s)  # "-10 cm": a word the lexicon does not know
     s = s.replace("-", " ")
     s = re.sub(r"(\d+(?:\.\d+)?)\s*(%|cm|mm|m)\b", r"\1 \2", s)
     s = re.sub(r"([,;:.!?()%\"])", r" \1 ", s)
@@ -109,6 +110,8 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
     """The token of one word given its neighbours."""
     if word in lx.ORDINALS and prev is not None and prev.kind in ("det", "colour"):
         return Token("ord", lx.ORDINALS[word], word)
+    if word in lx.SIDES and prev is not None and prev.kind in ("det", "colour"):
+        return Token("pos", word, word)  # "the left tap" (not the verb "leave")
     if word == "first" and prev is not None and prev.kind == "det":
         return Token("ord", 1, word)
     if (word,) in lx.SEPARATORS:
@@ -132,7 +135,8 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
         return Token("cmp", lx.COMPARATORS[(word,)], word)
     if word == "last":
         return Token("ord", -1, word)
-    nounish = prev is not None and prev.kind in _NOUNISH_BEFORE
+    nounish = prev is not None and prev.kind in _NOUNISH_BEFORE and not (
+        prev.text == "to" and nxt is not None and nxt in lx.DETERMINERS)  # "to block the opening": a verb
     for lemma in lemmas(word):
         if lemma in lx.VERBS and not (nounish and lemma in lx.NOUNS):
             return Token("verb", lx.VERBS[lemma], word)
@@ -183,10 +187,14 @@ def tokenize(text: str) -> list[Token]:
 
 
 def _fix_numbers(tokens: list[Token]) -> list[Token]:
-    """Join "two thirds" (num frac) into one fraction and "25 %" (num percent) into a fraction."""
+    """Join "two thirds" (num frac) into one fraction, "25 %" (num percent) into a fraction and "2 dozen" into
+    one number."""
     out: list[Token] = []
     for t in tokens:
-        if out and out[-1].kind == "num" and t.kind == "frac" and t.text.endswith("s"):
+        if out and out[-1].kind == "num" and t.kind == "num" and t.text in ("dozen", "hundred"):
+            n = out.pop()  # "2 dozen", "two hundred"
+            out.append(Token("num", float(n.value) * float(t.value), f"{n.text} {t.text}"))  # type: ignore[arg-type]
+        elif out and out[-1].kind == "num" and t.kind == "frac" and t.text.endswith("s"):
             n = out.pop()
             out.append(Token("frac", float(n.value) * float(t.value), f"{n.text} {t.text}"))  # type: ignore[arg-type]
         elif out and out[-1].kind == "num" and t.kind == "unit" and t.value == "percent":

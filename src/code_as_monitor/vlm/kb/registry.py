@@ -17,11 +17,16 @@ from code_as_monitor.vlm.kb.shared.codegen import Template
 
 FAMILY_MODULES: tuple[str, ...] = (
     "rope",
+    "dustpan",  # before "sweep": sweeping into a dustpan is its own task
     "sweep",
     "pen",
     "book",
     "tea",
+    "putdrawer",  # before "drawer": "open the drawer and put ... in it" is more than opening it
     "drawer",
+    "bulb",
+    "tap",
+    "drag",
     "stack",
 )
 """Module names under ``code_as_monitor.vlm.kb.families``: one line per task family."""

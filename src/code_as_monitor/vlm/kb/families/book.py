@@ -115,7 +115,7 @@ def understand(ins: Instruction, objects: list[str]) -> BookGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "stow-book", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
     r.modifiers(MODIFIERS, DOING)
     for k in r.links(("of",), lambda p: p.head == "shelf"):
         if k.a is not None and ins.resolve(k.a).head == "slot":

@@ -3,7 +3,13 @@
 and recovery.
 
 Family ``drawer`` ("open the drawer by pulling its handle"): ``grasp`` the cabinet's handle -> ``pull`` the
-drawer out ``PULL_DISTANCE`` (then the gripper lets go) -> done. Elements, all points: the gripper's grasp
+drawer out its opening plus ``PULL_MARGIN`` (then the gripper lets go) -> done.
+
+How far: ``DRAWER_OPEN`` (15 cm), or a length ("open the drawer 10 cm", "by 4 inches", "at least 8 cm": at
+least that far out), or "halfway" (12.5 cm, half the 25 cm travel), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's
+``min_open`` (its success check follows) and the pull checks' ``min_open``. Refused, naming the words: upper
+limits ("up to", "exactly": the pull is checked from below only), lengths out of range, two lengths, "fully"
+(a re-pull after a slip would run into the stop, see below). Elements, all points: the gripper's grasp
 point (``robot/tip``), the handle bar's centre (``drawer_cabinet/handle``), the drawer front
 (``drawer_cabinet/drawer``) and the cabinet's body (``drawer_cabinet/frame``); the drawer's axis is the
 horizontal direction from the body to the drawer front, its travel is the handle's motion along that axis
@@ -24,7 +30,8 @@ drawerfreed (still held after the pull)                  pull again (it ends by 
 
 After a slip the next pull is again ``PULL_DISTANCE`` from wherever the drawer stopped: the kb is stateless
 (it sees the failed constraint's id, not how far the drawer came out), so it cannot ask for just the
-remaining distance; the drawer's 25 cm travel leaves room for a slip at up to 8 cm plus a full pull.
+remaining distance; the drawer's 25 cm travel leaves room for a slip at up to 8 cm plus a full pull of at
+most ``MAX_OPEN`` + ``PULL_MARGIN``, which is why longer openings are refused.
 
 Thresholds: Physical tolerances from the object sizes in sim/assets, never fitted to evaluation outcomes. Units: metres,
 radians, fractions.
@@ -97,23 +104,35 @@ def _thr(kind: str) -> dict[str, float]:
     return dict(THRESHOLDS[kind])
 
 
-PULL_DISTANCE = round(DRAWER_OPEN + 0.02, 3)
-"""Metres the pull moves the handle: the opening asked for plus 2 cm, for a grasp that lags the tool a little
-and for the painted points' noise."""
+PULL_MARGIN = 0.02
+"""Metres the pull goes beyond the opening asked for: for a grasp that lags the tool a little and for the painted
+points' noise."""
+PULL_DISTANCE = round(DRAWER_OPEN + PULL_MARGIN, 3)
+"""Metres the pull moves the handle for the default opening."""
+DRAWER_TRAVEL = 0.25
+"""Metres the drawer runs on its rails (``sim/assets/drawer_cabinet.urdf``)."""
+MIN_OPEN = 0.05
+"""The smallest opening the kb plans: below 5 cm the handle's travel is within the 2-3 cm tolerances of the
+painted points (``drawer_still``, ``drawer_handle_grip``), so the monitor could not tell it from a still drawer."""
+MAX_OPEN = DRAWER_OPEN
+"""The largest opening the kb plans: a slip at up to 8 cm then a full re-pull of ``MAX_OPEN`` + ``PULL_MARGIN``
+still fits the 25 cm travel (the stateless rule re-pulls the whole distance)."""
 
 
 @dataclass(frozen=True)
 class DrawerGoal:
-    """The cabinet and the part to grasp (its handle)."""
+    """The cabinet, the part to grasp (its handle) and how far the drawer must come out (metres)."""
 
     obj: str
     target: str = "handle"
+    min_open: float = DRAWER_OPEN
 
 
 VERBS = ("open", "pull", "slide", "grasp", "use")
-MODIFIERS = ("out", "open", "by_handle")
+MODIFIERS = ("out", "open", "by_handle", "halfway")
 HEADS = ("drawer", "cabinet", "handle")
-DOING = "opens the drawer by pulling its handle out along its rails (about 15 cm)"
+DOING = (f"opens the drawer by pulling its handle out along its rails, 15 cm or a length from "
+         f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm")
 
 
 def claims(ins: Instruction) -> bool:
@@ -125,7 +144,11 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "open-drawer", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
+    if "fully" in ins.modifiers:
+        r.refuse(f"cannot open the drawer all the way (its {DRAWER_TRAVEL * 100:.0f} cm travel): the kb opens it "
+                 f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm, so that a re-pull after a slip fits the rails "
+                 f"(say e.g. 'open the drawer 15 cm')")
     r.modifiers(MODIFIERS, DOING)
     if not {"open", "pull", "slide"} & set(ins.verbs) and "open" not in ins.modifiers:
         r.refuse("say what to do with the drawer: open it")
@@ -134,7 +157,8 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
         r.refuse("which drawer? say 'the drawer'")
     for p in parts:
         q = ins.resolve(p.index)
-        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
+        if q.colour or q.position or q.ordinal or (q.quantity is not None and (
+                q.quantity.value != 1 or q.quantity.of_total not in (None, 1))):
             r.refuse(f"{p.text!r}: the scene has one drawer with one handle")
         r.use(p.index)
     for k in ins.links:
@@ -143,11 +167,31 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
         if (k.kind == "of" and a in ("handle", "drawer") and b in ("drawer", "cabinet")) or (
                 k.kind in ("by", "with", "at") and b == "handle") or (k.kind in ("from", "out_of") and b == "cabinet"):
             r.use_link(k)
+    min_open = _opening(r)
     cabinet = next((o for o in scene_names(objects) if "drawer" in o or "cabinet" in o), "")
     if not cabinet:
         r.refuse("the scene has no drawer")
     r.finish()
-    return DrawerGoal(cabinet, "handle")
+    return DrawerGoal(cabinet, "handle", min_open)
+
+
+def _opening(r: Reading) -> float:
+    """Metres the drawer must come out: a length, "halfway", or the default (the measures are marked used)."""
+    ins = r.ins
+    halfway = "halfway" in ins.modifiers
+    if len(ins.measures) + halfway > 1:
+        r.refuse("say one opening, e.g. 'open the drawer 10 cm'")
+    if not ins.measures:
+        return round(DRAWER_TRAVEL / 2, 4) if halfway else DRAWER_OPEN
+    m = ins.measures[0]
+    r.used_measures.add(0)
+    if m.bound not in ("plain", "about", "at_least", "more"):
+        r.refuse(f"cannot promise {m.text!r}: the kb pulls a little past the opening asked for and checks "
+                 f"that the drawer came out at least that far (say e.g. 'open the drawer 10 cm')")
+    if not MIN_OPEN - 1e-9 <= m.metres <= MAX_OPEN + 1e-9:
+        r.refuse(f"cannot open the drawer {m.text!r} ({m.metres * 100:.1f} cm): the kb opens it "
+                 f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm")
+    return round(m.metres, 4)
 
 
 def scene(ins: Instruction) -> list[str] | None:
@@ -186,10 +230,11 @@ def grasp(obj: str) -> list[dict[str, Any]]:
     ]
 
 
-def pull(obj: str) -> list[dict[str, Any]]:
+def pull(obj: str, min_open: float = DRAWER_OPEN) -> list[dict[str, Any]]:
     """``pull``: during, the handle stays in the gripper until the drawer is out; upon, the drawer front came out
-    ``DRAWER_OPEN`` along its axis (element history) and the gripper let go."""
+    ``min_open`` along its axis (element history) and the gripper let go."""
     hd, pu, fr = _thr("drawer_handled"), _thr("drawer_pulled"), _thr("drawer_freed")
+    hd["min_open"] = pu["min_open"] = min_open
     return [
         constraint(f"handled_{obj}", f"the handle of {nice(obj)} stays in the gripper (within {hd['max_dist'] * 100:.0f} cm "
            f"of the grasp point) until the drawer is out {hd['min_open'] * 100:.0f} cm; if the grasp slips off, the "
@@ -205,13 +250,15 @@ def pull(obj: str) -> list[dict[str, Any]]:
 REGRASP = ("drawerstill", "handlegrip", "jawshut", "handled", "pulled")
 
 
-def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: str) -> dict[str, Any]:
+def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: str,
+                min_open: float = DRAWER_OPEN) -> dict[str, Any]:
     """The next subgoal; ``kind`` is the failed constraint's key (or ``success``). ``target`` is the part to
-    grasp (``handle``)."""
+    grasp (``handle``); ``min_open`` how far the drawer must come out (metres)."""
     part = target or "handle"
+    distance = round(min_open + PULL_MARGIN, 4)
     g = answer(f"grasp the {part} of {nice(obj)}", "grasp", {"obj": obj, "part": part}, grasp(obj), "")
-    p = answer(f"pull the drawer of {nice(obj)} open by {PULL_DISTANCE * 100:.0f} cm", "pull",
-               {"obj": obj, "distance": PULL_DISTANCE}, pull(obj), "")
+    p = answer(f"pull the drawer of {nice(obj)} open by {round(distance * 100, 1):g} cm", "pull",
+               {"obj": obj, "distance": distance}, pull(obj, min_open), "")
     fin = done("the drawer is open and released")
     skill = ((previous or {}).get("action") or {}).get("skill")
     if not previous or skill not in ("grasp", "pull"):
@@ -222,7 +269,9 @@ def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: st
     if kind == "success":
         if skill == "grasp":
             p["reasoning"] = (f"the handle is held; pull straight out along the drawer's axis, "
-                              f"{PULL_DISTANCE * 100:.0f} cm (the opening asked for plus a margin), then let go")
+                              f"{round(distance * 100, 1):g} cm (the opening asked for, {round(min_open * 100, 1):g} cm, "
+                              f"plus a "
+                              f"margin), then let go")
             return p
         return fin
     if kind in REGRASP or (skill == "grasp" and kind == "other"):
@@ -233,9 +282,13 @@ def next_drawer(obj: str, target: str, previous: dict[str, Any] | None, kind: st
     return p
 
 
-
 def next_subgoal(goal: DrawerGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
-    return next_drawer(goal.obj, goal.target, previous, failed_kind(feedback))
+    return next_drawer(goal.obj, goal.target, previous, failed_kind(feedback), goal.min_open)
+
+
+def task_params(goal: DrawerGoal) -> dict[str, object]:
+    """The open-drawer task's goal parameter: how far the drawer must be open."""
+    return {"min_open": goal.min_open}
 
 
 # --- templates ---------------------------------------------------------------------------------------------
@@ -331,11 +384,12 @@ def drawerfreed(c: Spec) -> str:
 FAMILY = TaskFamily(
     name="drawer",
     task="open-drawer",
-    summary="open the drawer by pulling its handle",
+    summary="open the drawer by pulling its handle, 15 cm or as far as asked from 5 to 15 cm",
     example="open the drawer by pulling its handle",
     understand=understand,
     next_subgoal=next_subgoal,
     scene=scene,
+    task_params=task_params,
     thresholds=THRESHOLDS,
     templates={"drawerstill": drawerstill, "handlegrip": handlegrip, "jawshut": jawshut, "handled": handled,
                "pulled": pulled, "drawerfreed": drawerfreed},

@@ -90,7 +90,7 @@ def understand(ins: Instruction, objects: list[str]) -> PenGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "slot-pen", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
     r.modifiers(MODIFIERS, DOING)
     for p in r.phrases(lambda p: p.head in ("pencil", "marker")):
         r.refuse(f"the kb's pen rule moves a pen, not {p.text!r}")

@@ -4,6 +4,17 @@
 Plan: one ``close_shape`` subgoal; upon, resting rope beads lie along (nearly) all of the opening between
 ``corner_3`` and ``corner_0`` for a short while. Elements: the two corners of the opening and every rope bead
 (``rope/bead_NN``, points). Recovery: keep adjusting the rope until the opening is enclosed.
+
+How much of the opening: "enclosed" (the simulator's definition, ``rope_cover``: 90 % of 11 samples) unless the
+instruction gives a fraction of the opening ("close half of the opening", "at least 80 % of the opening",
+"100 % of the opening"), from ``MIN_COVERAGE`` to 1; "the whole opening", "fully", "completely" are the default
+(enclosed). The fraction is the task's ``min_coverage`` (its success check follows it) and the check's
+``min_fraction``. Upper limits ("at most half", "exactly 60 %") are refused: the rope is laid along the whole
+opening and the check reads coverage from below.
+
+What is read as closing the opening: a close verb ("close", "seal", "cover", "fill", "block", "enclose")
+whose object is the opening or the square, or the rope put / dragged / laid across, along, over, into or to the
+opening. The rope put into or onto the square (not its opening) is refused: that is another goal.
 """
 
 from __future__ import annotations
@@ -12,7 +23,7 @@ import re
 from dataclasses import dataclass
 from typing import Any
 
-from code_as_monitor.vlm.grammar import Instruction
+from code_as_monitor.vlm.grammar import Instruction, Phrase
 from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, num
@@ -43,16 +54,26 @@ def _thr(kind: str) -> dict[str, float]:
     return dict(THRESHOLDS[kind])
 
 
+MIN_COVERAGE = 0.25
+"""The smallest fraction of the opening the kb plans to cover (below it a rope lying near one corner would do)."""
+
+
 @dataclass(frozen=True)
 class RopeGoal:
-    """The rope, the shape whose opening it closes, and the rope's bead parts in order (ends first and last)."""
+    """The rope, the shape whose opening it closes, the rope's bead parts in order (ends first and last), and
+    the fraction of the opening that must be covered (``None``: enclosed, the default)."""
 
     rope: str
     shape: str
     rope_beads: tuple[str, ...]
+    coverage: float | None = None
 
 
-VERBS = ("use", "close", "fill", "put", "drag", "arrange", "pull", "stack")
+VERBS = ("use", "close", "fill", "put", "drag", "arrange", "pull", "pick", "grasp")
+CLOSING = ("close", "fill")
+"""Verbs whose object may be the opening or the square itself ("close the square", "seal the gap")."""
+PLACING = ("into", "on", "across", "along", "above", "to", "in_front_of", "through")
+"""Links from the rope (or the verb) to the opening that place the rope across it."""
 DOING = "drags the rope across the opening of the square outline until the opening is closed"
 HEADS = ("rope", "opening", "square")
 
@@ -76,26 +97,40 @@ def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "rope-close-square", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
-    r.modifiers((), DOING)
+    r.verbs(VERBS, DOING, once=True)
+    r.modifiers(("fully",), DOING)
     ropes = r.phrases(lambda p: p.head == "rope")
     targets = r.phrases(lambda p: p.head in ("opening", "square"))
     if not ropes:
         r.refuse("what closes the opening? the kb's rule uses the rope")
     if not targets:
         r.refuse("say what the rope should close: the opening of the square")
+    if len({ins.resolve(p.index).index for p in ropes}) > 1:
+        r.refuse("the scene has one rope: name it once")
+    coverage: float | None = None
     for p in ropes + targets:
         q = ins.resolve(p.index)
-        if q.colour or q.quantity is not None or q.position or q.ordinal:
+        if q.head == "opening" and q.quantity is not None and q.quantity.kind in ("fraction", "all") \
+                and not q.colour and not q.position and not q.ordinal and coverage is None:
+            coverage = _coverage(r, q)
+        elif q.colour or q.quantity is not None or q.position or q.ordinal:
             r.refuse(f"{p.text!r}: the scene has one rope and one square")
         r.use(p.index)
+    placed = False
     for k in ins.links:
         a = ins.resolve(k.a).head if k.a is not None else ""
         b = ins.resolve(k.b).head
-        if (k.kind in ("of", "into") and a == "opening" and b == "square") or (k.kind == "with" and b == "rope") or (
-                k.kind in ("into", "on", "across", "along", "above", "to", "in_front_of", "through")
-                and b in ("opening", "square") and a in ("", "rope")):
+        if k.kind in PLACING and b == "opening" and a in ("", "rope"):
             r.use_link(k)
+            placed = True
+        elif (k.kind in ("of", "into", "on") and a == "opening" and b == "square") or (
+                k.kind == "with" and b == "rope"):
+            r.use_link(k)
+    closing = set(CLOSING) & set(ins.verbs)
+    if not closing and not placed:
+        r.refuse("say where the rope goes: across the opening of the square (or 'close the opening with the rope')")
+    if not closing and not any(ins.resolve(p.index).head == "opening" for p in targets):
+        r.refuse("the rope closes the square's opening; say 'the opening'")
     names = scene_names(objects)
     rope = next((o for o in names if "rope" in o), "")
     shape = next((o for o in names if o in ("square", "shape", "outline")), "")
@@ -105,17 +140,39 @@ def understand(ins: Instruction, objects: list[str]) -> RopeGoal | None:
     beads = sorted(p for p in scene_parts(objects).get(rope, []) if re.fullmatch(r"bead_\d+", p))
     if not beads:
         beads = [f"bead_{i:02d}" for i in range(DEFAULT_ROPE_BEADS)]
-    return RopeGoal(rope, shape, tuple(beads))
+    return RopeGoal(rope, shape, tuple(beads), coverage)
 
+
+def _coverage(r: Reading, q: Phrase) -> float | None:
+    """The fraction of the opening asked for by ``q``'s quantity; None for "the whole opening" (enclosed)."""
+    qty = q.quantity
+    assert qty is not None
+    if qty.kind == "all":
+        return None
+    if qty.bound not in ("plain", "about", "at_least", "more") or qty.of_total is not None:
+        r.refuse(f"cannot promise {q.text!r}: the rope is laid along all of it and the "
+                 f"check reads how much it covers from below (say e.g. 'at least 80 % of the opening')")
+    if not MIN_COVERAGE - 1e-9 <= qty.value <= 1.0 + 1e-9:
+        r.refuse(f"cannot cover {q.text!r}: the kb covers {MIN_COVERAGE * 100:.0f} to "
+                 f"100 % of it")
+    return round(float(qty.value), 4)
 
 def scene(ins: Instruction) -> list[str] | None:
     """The rope-close-square scene's objects, or None."""
     return ["rope", "square", "table"] if claims(ins) else None
 
 
-def close_shape(rope: str, shape: str, beads: tuple[str, ...]) -> list[dict[str, Any]]:
-    """``close_shape``: upon, resting rope beads lie along (nearly) all of the opening between corner_3 and corner_0."""
+def task_params(goal: RopeGoal) -> dict[str, object]:
+    """The rope-close-square task's goal parameter: the fraction of the opening to cover ({} for enclosed)."""
+    return {} if goal.coverage is None else {"min_coverage": goal.coverage}
+
+
+def close_shape(rope: str, shape: str, beads: tuple[str, ...], coverage: float | None = None) -> list[dict[str, Any]]:
+    """``close_shape``: upon, resting rope beads lie along (nearly) all of the opening between corner_3 and corner_0
+    (``coverage`` of it when given)."""
     thr = _thr("rope_cover")
+    if coverage is not None:
+        thr["min_fraction"] = coverage
     parts = [
         {"name": f"{shape} opening corner_0", "obj": shape, "part": "corner_0", "kind": "point"},
         {"name": f"{shape} opening corner_3", "obj": shape, "part": "corner_3", "kind": "point"},
@@ -166,7 +223,7 @@ def next_rope(task: RopeGoal, previous: dict[str, Any] | None, feedback: str | N
         if cat == "success":
             return done("the opening of the square is enclosed by the rope")
         why = f"the opening is not enclosed yet ({cat}); keep adjusting the rope. " + why
-    cons = close_shape(task.rope, task.shape, task.rope_beads)
+    cons = close_shape(task.rope, task.shape, task.rope_beads, task.coverage)
     text = f"close the opening of {nice(task.shape)} with {nice(task.rope)}"
     return answer(text, "close_shape", {"rope": task.rope, "shape": task.shape}, cons, why)
 
@@ -174,11 +231,12 @@ def next_rope(task: RopeGoal, previous: dict[str, Any] | None, feedback: str | N
 FAMILY = TaskFamily(
     name="rope",
     task="rope-close-square",
-    summary="close the opening of the square outline with the rope",
+    summary="close the opening of the square outline with the rope (all of it or a fraction asked for)",
     example="use the rope to close the opening of the square",
     understand=understand,
     next_subgoal=next_rope,
     scene=scene,
+    task_params=task_params,
     thresholds=THRESHOLDS,
     templates={"rope": covers},
     keywords=(("rope", "rope"),),

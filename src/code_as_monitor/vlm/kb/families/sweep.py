@@ -86,6 +86,8 @@ def band(n: int, q: Quantity | None, definite: bool) -> tuple[int, int, int]:
         raise ValueError(f"{q.text!r} is not a count to reach")
     if q.of_total is not None and q.of_total != n:
         raise ValueError(f"the scene has {n} blocks, not {q.of_total:g}")
+    if q.kind == "number" and any(v is not None and v != int(v) for v in (q.value, q.high)):
+        raise ValueError(f"{q.text!r}: a count of blocks is a whole number")
     value = n * q.value if q.kind in ("fraction", "all") else q.value
     high = q.high if q.high is not None else value
     if not 0 < value <= n or not value <= high <= n:
@@ -133,9 +135,14 @@ def understand(ins: Instruction, objects: list[str]) -> SweepGoal | None:
         r.refuse("say which blocks to push (e.g. 'half of the blocks')" if not movers else
                  "name the blocks to push once")
     for z in zones:
+        zq = ins.resolve(z.index).quantity
+        if zq is not None and not (zq.kind == "all" and zq.of_total is None):  # "the whole zone" is the zone
+            r.refuse(f"{z.text!r}: the blocks go into the one zone, all of it")
         if ins.resolve(z.index).colour not in ("", "yellow"):
             r.refuse(f"there is no {ins.resolve(z.index).colour} zone (the zone is yellow)")
     mover = ins.resolve(movers[0].index)
+    if mover.head == "block" and not mover.plural and mover.quantity is None:
+        r.refuse(f"{movers[0].text!r}: which block? the scene has {len(blocks)}; say how many to push")
     if mover.colour:
         r.refuse(f"the blocks are not told apart by colour ({mover.colour!r})")
     into = r.links(("into", "on", "to", "at"), lambda p: p.head == "zone")

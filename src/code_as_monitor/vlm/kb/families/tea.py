@@ -128,7 +128,7 @@ def understand(ins: Instruction, objects: list[str]) -> TeaGoal | None:
     if not claims(ins):
         return None
     r = Reading(ins, "pour-tea", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    r.verbs(VERBS, DOING, once=True)
     r.modifiers((), DOING)
     names = scene_names(objects)
     pot = next((o for o in names if "pot" in o), "")
@@ -140,7 +140,8 @@ def understand(ins: Instruction, objects: list[str]) -> TeaGoal | None:
     teas = r.phrases(lambda p: p.head == "tea")
     for p in pots + cups + teas:
         q = ins.resolve(p.index)
-        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.kind not in ("all", "some")):
+        if q.colour or q.position or q.ordinal or (q.quantity is not None and q.quantity.kind not in ("all", "some")) \
+                or (q.plural and q.head != "tea") or (q.quantity is not None and q.quantity.of_total is not None):
             r.refuse(f"{p.text!r}: the kb pours all the tea from the one teapot into the one teacup")
         r.use(p.index)
     if not ins.verbs or not {"pour", "fill"} & set(ins.verbs):

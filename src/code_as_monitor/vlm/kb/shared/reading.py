@@ -68,11 +68,15 @@ class Reading:
         raise exc
 
     # --- vocabulary ----------------------------------------------------------------------------------------
-    def verbs(self, allowed: Iterable[str], doing: str) -> None:
-        """Every verb is one of ``allowed``; ``doing`` says what the family does (for the message)."""
+    def verbs(self, allowed: Iterable[str], doing: str, once: bool = False) -> None:
+        """Every verb is one of ``allowed``; ``doing`` says what the family does (for the message). ``once``: the
+        family does one thing, so a verb said twice ("pour ... and then pour it back") is a second action."""
         bad = [v for v in self.ins.verbs if v not in set(allowed)]
         if bad:
             self.refuse(f"cannot {bad[0]!r} here; this task family {doing}")
+        again = [v for i, v in enumerate(self.ins.verbs) if v in self.ins.verbs[:i]]
+        if once and again:
+            self.refuse(f"cannot {again[0]!r} twice; this task family {doing}, once")
 
     def modifiers(self, allowed: Iterable[str], doing: str) -> None:
         """Every modifier is one of ``allowed`` (they are marked used)."""
@@ -137,7 +141,8 @@ def read_placement(r: Reading, objects: list[str], *, item: tuple[str, ...], ite
         r.refuse(f"say where the {what} goes: into the {where}")
     for p in items + places:
         q = ins.resolve(p.index)
-        if q.colour or (q.quantity is not None and q.quantity.value != 1) or q.position or q.ordinal:
+        if q.colour or (q.quantity is not None and (q.quantity.value != 1 or q.quantity.of_total not in (None, 1))) \
+                or q.position or q.ordinal:
             r.refuse(f"{p.text!r}: the scene has one {what} and one {where}")
         r.use(p.index)
     for k in ins.links:
@@ -147,6 +152,8 @@ def read_placement(r: Reading, objects: list[str], *, item: tuple[str, ...], ite
             r.use(k.b)
     if places and not any(k.kind in preps and ins.resolve(k.b).head in place for k in ins.links):
         r.refuse(f"say where the {what} goes: into the {where}")
+    if sum(k.kind in preps and ins.resolve(k.b).head in place for k in ins.links) > 1:
+        r.refuse(f"say one place for the {what}: the scene has one {where}")
     obj = next((o for o in names if item_obj(o)), "")
     dest = next((o for o in names if place_obj(o)), "")
     if not obj:
