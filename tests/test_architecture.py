@@ -45,10 +45,6 @@ LOWER_LAYERS = ("core", "geometry", "perception", "vlm", "painter", "monitor", "
 """Packages that never import the simulator or the bag reader."""
 FORBIDDEN_BELOW = ("sim", "recordings")
 
-LONG_MODULES_BEING_SPLIT: dict[str, str] = {}
-"""Modules over the limit whose split is another change's work, allowed here only until it lands."""
-
-
 
 @dataclass
 class Graph:
@@ -227,14 +223,7 @@ def test_no_import_circle_counting_deferred_imports():
 
 
 def test_no_module_over_400_lines():
-    over = {m: n for m, n in long_modules(GRAPH).items() if m not in LONG_MODULES_BEING_SPLIT}
-    assert over == {}, f"modules over {MAX_LINES} lines: {over}"
-
-
-def test_allow_list_is_still_needed():
-    """An allow-listed module that is now short (or gone) must leave the list."""
-    stale = sorted(set(LONG_MODULES_BEING_SPLIT) - set(long_modules(GRAPH)))
-    assert stale == [], f"remove from LONG_MODULES_BEING_SPLIT: {stale}"
+    assert long_modules(GRAPH) == {}, f"modules over {MAX_LINES} lines"
 
 
 def test_lower_layers_never_import_sim_or_recordings():
@@ -388,7 +377,7 @@ def report(g: Graph) -> str:
     lines += [f"  {' <-> '.join(c)}" for c in all_cycles]
     over = long_modules(g)
     lines.append(f"modules over {MAX_LINES} lines: {len(over)}")
-    lines += [f"  {m} {n}" + (" (allow-listed)" if m in LONG_MODULES_BEING_SPLIT else "") for m, n in over.items()]
+    lines += [f"  {m} {n}" for m, n in over.items()]
     breaks = layer_breaks(g)
     lines.append(f"lower layers importing sim/recordings: {len(breaks)}")
     lines += [f"  {a} -> {b} ({k})" for a, b, k in breaks]
