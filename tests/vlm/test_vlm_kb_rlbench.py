@@ -238,6 +238,13 @@ def test_drag_stick_checks(make_elements, run_program) -> None:
     assert not run(stick_x=0.645, cube=(0.6, 0.2, 0.02))["behind_cube"][0]  # past the shaft's end
     assert run(stick_x=0.58, low=False)["behind_cube"][0]  # still high: nothing to judge
     assert run(cube=(0.43, 0.01, 0.02))["ontarget_cube"][0] and not run(cube=(0.52, 0.0, 0.02))["ontarget_cube"][0]
+    # the stick away from the grasp point: a drop, unless the cube is already on the target (the put-down)
+    assert run(low=False)["dragheld_stick"][0]  # held (the tip is at its grip)
+
+    def away(cube):
+        return run_program(src, make_elements(drag, {**base, **_drag(cube=cube), **_robot([0.66, 0.35, 0.2])}))
+
+    assert away((0.43, 0.01, 0.02))["dragheld_stick"][0] and not away((0.6, 0.0, 0.02))["dragheld_stick"][0]
 
 
 def test_sweep_to_dustpan_checks(make_elements, run_program) -> None:

@@ -29,6 +29,7 @@ levered, turned                 the named lever's blob lies across the image (a 
 behind                          when the grasp point is low, the shaft's image line passes below the cube (nearer
                                 the camera, the cube between it and the target) and the cube is within its ends
 ontarget                        the cube's centre inside the red target's bounding box
+dragheld                        the stick's shaft at the grasp point (as ``gripped``), or the cube on the target
 inpan                           at least ``min_fraction`` of the brown dirt pixels inside the pan's bounding box
 =============================== ===========================================================================
 
@@ -57,9 +58,9 @@ GRIP_EXTRA = {"shaft": 0.05}
 """Metres between where the gripper holds an item and the nearest visible part of its colour: the stick's black
 grip (the table's colour) reaches 5 cm past its shaft's end."""
 
-KEYS = ("steady", "leverstill", "otherstill", "grasped", "gripped", "levergrip", "bulbgrip", "lifted", "bulbjaw",
-        "jawshut", "freed", "leverfreed", "carriedin", "intray", "overtray", "bulbseated", "screwed", "levered",
-        "turned", "behind", "ontarget", "inpan")
+KEYS = ("steady", "leverstill", "otherstill", "grasped", "gripped", "dragheld", "levergrip", "bulbgrip", "lifted",
+        "bulbjaw", "jawshut", "freed", "leverfreed", "carriedin", "intray", "overtray", "bulbseated", "screwed",
+        "levered", "turned", "behind", "ontarget", "inpan")
 
 
 def _item(c: Constraint) -> str | None:
@@ -149,6 +150,12 @@ class RLBenchRules:
         if key == "otherstill":  # the constraint's own lever is the other one (the one not to be turned)
             moved = turned
             return A(not moved, f"the other lever {'looks turned' if moved else 'looks closed'}")
+        if key == "dragheld":  # the stick held, or the cube (this constraint's item) already on the target
+            sh = _shape(rgb, "shaft")
+            held = sh is not None and _dist_px(g, "shaft", sh) <= (reach + GRIP_EXTRA["shaft"]) * g.px_per_m
+            on = _inside(s[0], _box(rgb, "target"))
+            return A(held or on, f"the stick is {'' if held else 'not '}in the gripper and the cube is "
+                                 f"{'' if on else 'not '}on the target in the image")
         if key in ("grasped", "gripped", "levergrip", "bulbgrip"):
             return A(near, f"the {name} is {'' if near else 'not '}between the fingers")
         if key == "lifted":

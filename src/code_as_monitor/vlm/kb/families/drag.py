@@ -8,7 +8,7 @@ Elements: the grasp point (``robot/tip``, point), the stick's grip (``stick/grip
 holds), the stick's shaft (``stick/shaft``, a LINE: its two ends, the edge that drags), the cube (``cube``,
 point), the target (``target/surface``, a SURFACE: its corners; its centroid is the target's centre).
 
-Recovery by the failed constraint's id prefix: ``steady``, ``grasped``, ``lifted``, ``gripped`` (the stick is not
+Recovery by the failed constraint's id prefix: ``steady``, ``grasped``, ``lifted``, ``dragheld`` (the stick is not
 held), ``behind`` (the stick came down in front of or beside the cube), ``ontarget`` (the cube is not on the
 target) -> grasp the stick again, then drag again.
 """
@@ -23,7 +23,7 @@ from code_as_monitor.vlm.kb.family import TaskFamily
 from code_as_monitor.vlm.kb.shared.answer import answer, constraint, done, nice, whole
 from code_as_monitor.vlm.kb.shared.codegen import Spec, check_fn, lit, num, obj_name
 from code_as_monitor.vlm.kb.shared.feedback import failed_kind
-from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec, still_gripped
+from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 THRESHOLDS: dict[str, dict[str, float]] = {
@@ -32,8 +32,10 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # jaws); upon, the grip at the grasp point (3 cm) and risen 5 cm with it.
     "drag_steady": {"max_disp": 0.02, "max_dist": 0.03},
     "drag_lifted": {"max_dist": 0.03, "min_rise": 0.05},
-    # drag, during: the grip stays within 4 cm of the grasp point.
-    "drag_gripped": {"max_dist": 0.04},
+    # drag, during: the grip stays within 4 cm of the grasp point until the cube is on the target (its centre
+    # within 4 cm of the target's, as ``ontarget``): the skill puts the stick down at its end, which is no drop
+    # once the cube is there (a stick-only check called every put-down a drop, also after a good drag).
+    "drag_gripped": {"max_dist": 0.04, "on_target": 0.04},
     # drag, during (proactive): once the shaft is low (its middle under 5 cm: on the table it is at 1.4 cm,
     # carried at 20 cm), the cube is ahead of it towards the target by at least 1.5 cm (the cube's and the
     # shaft's half widths, 2 + 1 cm, less a 1.5 cm slack for the painted points) and within the shaft's length,
@@ -134,7 +136,10 @@ def drag(g: DragGoal) -> list[dict[str, Any]]:
     cube is on the target."""
     gr, be, on = _thr("drag_gripped"), _thr("behind"), _thr("ontarget")
     return [
-        still_gripped(g.stick, _grip(g.stick), gr),
+        constraint(f"dragheld_{g.stick}", f"{nice(g.stick)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm "
+                   f"of the grasp point) until {nice(g.cube)} is on {nice(g.target)} (its centre within "
+                   f"{gr['on_target'] * 100:.0f} cm of the target's)", "during", False, gr,
+                   [GRIP_TIP, _grip(g.stick), whole(g.cube), _target(g.target)]),
         constraint(f"behind_{g.cube}", f"once {nice(g.stick)} is low (its shaft under {be['low'] * 100:.0f} cm), "
                    f"{nice(g.cube)} lies ahead of the shaft towards {nice(g.target)} (by {be['min_ahead'] * 100:.1f} cm "
                    f"or more) and within its length, so the shaft drags it along", "during", True, be,
@@ -169,6 +174,22 @@ def behind(c: Spec) -> str:
     if h >= {low} or (ahead >= {ma} and along >= 0.0):
         return True, {lit("the stick is high or has " + cn + " ahead of it (%.3f m ahead, %.3f m in from the nearer end, shaft at %.3f m)")} % (ahead, s, h), margin
     return False, {lit("the stick came down but " + cn + " is not ahead of it towards the target (%.3f m ahead, %.3f m from an end of the shaft): it will not be dragged")} % (ahead, along), margin
+"""
+    return check_fn(c, body)
+
+
+def dragheld(c: Spec) -> str:
+    """Parts: [tip (point), grip (point), cube (point), target (surface)]. The grip is at the grasp point, or the
+    cube is already on the target (the stick is put down at the end)."""
+    tip, gp, cu, tg = c["element_ids"][:4]
+    md, ot, sn = num(c["thresholds"]["max_dist"]), num(c["thresholds"]["on_target"]), obj_name(c, 1)
+    body = f"""
+    d = distance(E[{tip}], centroid(E[{gp}]))
+    on = horizontal_distance(centroid(E[{cu}]), centroid(E[{tg}]))
+    margin = np.max([{md} - d, {ot} - on])
+    if d <= {md} or on <= {ot}:
+        return True, {lit(sn + " is held (%.3f m from the grasp point) or the cube is on the target (%.3f m)")} % (d, on), margin
+    return False, {lit(sn + " dropped: it is %.3f m from the grasp point and the cube is %.3f m from the target")} % (d, on), margin
 """
     return check_fn(c, body)
 
@@ -216,5 +237,5 @@ FAMILY = TaskFamily(
     next_subgoal=next_subgoal,
     scene=scene,
     thresholds=THRESHOLDS,
-    templates={"behind": behind, "ontarget": ontarget},
+    templates={"behind": behind, "ontarget": ontarget, "dragheld": dragheld},
 )
