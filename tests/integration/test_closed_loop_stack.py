@@ -48,12 +48,14 @@ def _check_recovery(summary: dict, run_dir: Path) -> None:
 
 
 def test_closed_loop_recovers_with_the_oracle_tracker(tmp_path: Path) -> None:
-    cfg = ClosedLoopConfig(seed=SEED, task_params=PARAMS, tracker="sim", width=320, height=240, video=False)
+    cfg = ClosedLoopConfig(
+        deadline_s=0.5, seed=SEED, task_params=PARAMS, tracker="sim", width=320, height=240, video=False)
     _check_recovery(run_closed_loop(cfg, tmp_path), tmp_path)
 
 
 @pytest.mark.slow
 def test_closed_loop_recovers_with_lk_tracking(tmp_path: Path) -> None:
-    cfg = ClosedLoopConfig(seed=LK_SEED, task_params=PARAMS, tracker="lk", width=640, height=480, video=True)
+    cfg = ClosedLoopConfig(
+        deadline_s=0.5, seed=LK_SEED, task_params=PARAMS, tracker="lk", width=640, height=480, video=True)
     _check_recovery(run_closed_loop(cfg, tmp_path), tmp_path)
     assert (tmp_path / "episode.mp4").stat().st_size > 10_000

@@ -18,7 +18,8 @@ SEED = 0
 
 def test_open_drawer_recovers_when_the_grasp_slips():
     assert not run_open_loop("open-drawer", seed=SEED, disturbance="slip").success
-    s = run_closed_loop(ClosedLoopConfig(task="open-drawer", seed=SEED, task_params={"disturbance": "slip"},
+    s = run_closed_loop(ClosedLoopConfig(
+        deadline_s=0.5, task="open-drawer", seed=SEED, task_params={"disturbance": "slip"},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == "handled_drawer_cabinet"
@@ -31,6 +32,7 @@ def test_open_drawer_recovers_when_the_grasp_slips():
 
 @pytest.mark.slow
 def test_open_drawer_closed_loop_undisturbed_raises_no_alarm():
-    s = run_closed_loop(ClosedLoopConfig(task="open-drawer", seed=SEED, tracker="sim", video=False), None)
+    s = run_closed_loop(ClosedLoopConfig(
+        deadline_s=0.5, task="open-drawer", seed=SEED, tracker="sim", video=False), None)
     assert s["success"], s["reason"]
     assert not s["episode"]["alarms"]

@@ -21,7 +21,8 @@ EXPECTED_ALARM = {"a": "potlevel_teapot", "b": "potlevel_teapot", "c": "pourtilt
 
 
 def _closed_loop(disturbance: str) -> dict:
-    s = run_closed_loop(ClosedLoopConfig(task="pour-tea", seed=SEED, task_params={"disturbance": disturbance},
+    s = run_closed_loop(ClosedLoopConfig(
+        deadline_s=0.5, task="pour-tea", seed=SEED, task_params={"disturbance": disturbance},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == EXPECTED_ALARM[disturbance]

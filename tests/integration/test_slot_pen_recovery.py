@@ -17,7 +17,8 @@ EXPECTED_ALARM = {"a": "steady_pen", "b": "carried_pen", "c": "over_pen_holder"}
 
 def _recovers(disturbance: str) -> None:
     assert not run_open_loop("slot-pen", seed=SEED, disturbance=disturbance).success
-    s = run_closed_loop(ClosedLoopConfig(task="slot-pen", seed=SEED, task_params={"disturbance": disturbance},
+    s = run_closed_loop(ClosedLoopConfig(
+        deadline_s=0.5, task="slot-pen", seed=SEED, task_params={"disturbance": disturbance},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == EXPECTED_ALARM[disturbance]

@@ -17,7 +17,8 @@ EXPECTED_ALARM = {"a": "aligned_book", "b": "poised_book", "c": "conveyed_book"}
 
 def _recovers(disturbance: str) -> None:
     assert not run_open_loop("stow-book", seed=SEED, disturbance=disturbance).success
-    s = run_closed_loop(ClosedLoopConfig(task="stow-book", seed=SEED, task_params={"disturbance": disturbance},
+    s = run_closed_loop(ClosedLoopConfig(
+        deadline_s=0.5, task="stow-book", seed=SEED, task_params={"disturbance": disturbance},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == EXPECTED_ALARM[disturbance]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -53,6 +54,18 @@ def live_children() -> list[int]:
         if int(fields[1]) == me and fields[0] not in ("Z", "X"):
             out.append(int(name))
     return out
+
+
+def settled_children(others: set[int], known: Callable[[], set[int]], wait_s: float = 5.0) -> set[int]:
+    """This process's running children that are not in ``others``, once every one of them is in ``known()``
+    or ``wait_s`` has passed: a spare the sandbox's spawner thread has just forked is a child a moment before
+    the sandbox records its pid (seen at load average 30); a worker it lost track of never gets there."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        ours = set(live_children()) - others
+        if ours <= known() or time.monotonic() > deadline:
+            return ours
+        time.sleep(0.05)
 
 
 def snapshot(arrays: dict[int, np.ndarray]) -> dict[int, np.ndarray]:

@@ -23,7 +23,7 @@ from breach_programs import BREACHES, DEFAULT, GOOD_B, SECRET_ENV, SYS
 from breached_worker import BOOT, parse_only
 from hostile_attacks import CANARY
 from hostile_programs import GOOD
-from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, snapshot
+from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, settled_children, snapshot
 
 from code_as_monitor.monitor import process
 from code_as_monitor.monitor import sandbox as sandbox_module
@@ -93,7 +93,7 @@ def test_breached_program_is_stopped_by_the_kernel_and_contained(name, source, k
     else:  # clean
         assert not a.fault and a.ok and needle in a.reason, a
     assert same(E, before_e) and same(H, before_h) and np.array_equal(Ht, before_t)  # the host's arrays
-    ours = set(live_children()) - others
+    ours = settled_children(others, lambda: breached.all_pids)
     assert ours <= breached.all_pids, (ours, breached.all_pids)
     assert not os.path.exists(CANARY)
     out, err = capfd.readouterr()

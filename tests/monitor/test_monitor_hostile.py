@@ -18,7 +18,7 @@ import pytest
 from hostile_attacks import ALL, CANARY
 from hostile_kinds import KINDS
 from hostile_programs import CORPUS, GOOD
-from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, snapshot
+from hostutil import RSS_GROWTH_LIMIT, SLACK_S, live_children, rss_bytes, same, settled_children, snapshot
 
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.protocol import _CONTROL, REASON_MAX
@@ -109,7 +109,7 @@ def test_hostile_program_is_rejected_or_contained(name, source, kind, needle, bo
     # the host after the attack
     assert same(E, before_e) and same(H, before_h) and np.array_equal(Ht, before_t)
     assert rss_bytes() - rss0 < RSS_GROWTH_LIMIT
-    ours = set(live_children()) - others
+    ours = settled_children(others, lambda: box.all_pids)
     assert ours <= box.all_pids, (ours, box.all_pids)  # no worker the sandbox lost track of
     assert len(ours) <= box.n_spares + 2  # the running worker, the spares, one being killed
     assert not os.path.exists(CANARY)
