@@ -327,6 +327,12 @@ class KinematicAnchor:
         T = np.asarray(robot.ee_pose, dtype=np.float64)
         return self.local @ T[:3, :3].T + T[:3, 3]
 
+    def observe(self, obs: Observation) -> tuple[np.ndarray, np.ndarray, int]:
+        """(points (k, 3) at ``obs``, stale flags (k,) all False, number of views they project into): an
+        anchored element is never stale, the robot state places it."""
+        p = self.points(obs)
+        return p, np.zeros(len(p), dtype=bool), views_containing(obs, p)
+
 
 def views_containing(obs: Observation, points: np.ndarray) -> int:
     """Number of views of ``obs`` into whose image at least one of ``points`` (k, 3) projects."""

@@ -50,7 +50,6 @@ from code_as_monitor.perception.trackers.base import (
     KinematicAnchor,
     Tracker,
     TrackResult,
-    views_containing,
 )
 from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, support
 from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
@@ -278,9 +277,7 @@ class DepthTracker(Tracker):
         visible: dict[int, int] = {}
         for eid in self._order:
             if eid in self._anchors:
-                points[eid] = self._anchors[eid].points(obs)
-                stale[eid] = np.zeros(len(points[eid]), dtype=bool)
-                visible[eid] = views_containing(obs, points[eid])
+                points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
                 continue
             owner = self._body_of.get(eid)
             body = self._bodies.get(owner) if owner is not None else None

@@ -57,7 +57,6 @@ from code_as_monitor.perception.trackers.base import (
     LKTrackerConfig,
     Tracker,
     TrackResult,
-    views_containing,
 )
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
@@ -380,9 +379,7 @@ class LKTracker(Tracker):
         visible: dict[int, int] = {}
         for eid in self._order:
             if eid in self._anchors:
-                points[eid] = self._anchors[eid].points(obs)
-                stale[eid] = np.zeros(len(points[eid]), dtype=bool)
-                visible[eid] = views_containing(obs, points[eid])
+                points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
             else:
                 sl = self._slices[eid]
                 points[eid] = self.P[sl].copy()
