@@ -14,6 +14,7 @@ import pytest
 pytest.importorskip("pybullet")
 
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+from code_as_monitor.bench.episode import BENCH_DEADLINE_S
 from code_as_monitor.sim.episode import run_open_loop
 
 SEED = 1
@@ -49,13 +50,13 @@ def _check_recovery(summary: dict, run_dir: Path) -> None:
 
 def test_closed_loop_recovers_with_the_oracle_tracker(tmp_path: Path) -> None:
     cfg = ClosedLoopConfig(
-        deadline_s=0.5, seed=SEED, task_params=PARAMS, tracker="sim", width=320, height=240, video=False)
+        deadline_s=BENCH_DEADLINE_S, seed=SEED, task_params=PARAMS, tracker="sim", width=320, height=240, video=False)
     _check_recovery(run_closed_loop(cfg, tmp_path), tmp_path)
 
 
 @pytest.mark.slow
 def test_closed_loop_recovers_with_lk_tracking(tmp_path: Path) -> None:
     cfg = ClosedLoopConfig(
-        deadline_s=0.5, seed=LK_SEED, task_params=PARAMS, tracker="lk", width=640, height=480, video=True)
+        deadline_s=BENCH_DEADLINE_S, seed=LK_SEED, task_params=PARAMS, tracker="lk", width=640, height=480, video=True)
     _check_recovery(run_closed_loop(cfg, tmp_path), tmp_path)
     assert (tmp_path / "episode.mp4").stat().st_size > 10_000

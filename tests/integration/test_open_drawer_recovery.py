@@ -11,6 +11,7 @@ from __future__ import annotations
 import pytest
 
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+from code_as_monitor.bench.episode import BENCH_DEADLINE_S
 from code_as_monitor.sim.episode import run_open_loop
 
 SEED = 0
@@ -19,7 +20,7 @@ SEED = 0
 def test_open_drawer_recovers_when_the_grasp_slips():
     assert not run_open_loop("open-drawer", seed=SEED, disturbance="slip").success
     s = run_closed_loop(ClosedLoopConfig(
-        deadline_s=0.5, task="open-drawer", seed=SEED, task_params={"disturbance": "slip"},
+        deadline_s=BENCH_DEADLINE_S, task="open-drawer", seed=SEED, task_params={"disturbance": "slip"},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == "handled_drawer_cabinet"
@@ -33,6 +34,6 @@ def test_open_drawer_recovers_when_the_grasp_slips():
 @pytest.mark.slow
 def test_open_drawer_closed_loop_undisturbed_raises_no_alarm():
     s = run_closed_loop(ClosedLoopConfig(
-        deadline_s=0.5, task="open-drawer", seed=SEED, tracker="sim", video=False), None)
+        deadline_s=BENCH_DEADLINE_S, task="open-drawer", seed=SEED, tracker="sim", video=False), None)
     assert s["success"], s["reason"]
     assert not s["episode"]["alarms"]

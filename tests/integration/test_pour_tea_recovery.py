@@ -14,6 +14,7 @@ from __future__ import annotations
 import pytest
 
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+from code_as_monitor.bench.episode import BENCH_DEADLINE_S
 from code_as_monitor.sim.episode import run_open_loop
 
 SEED = 0
@@ -22,7 +23,7 @@ EXPECTED_ALARM = {"a": "potlevel_teapot", "b": "potlevel_teapot", "c": "pourtilt
 
 def _closed_loop(disturbance: str) -> dict:
     s = run_closed_loop(ClosedLoopConfig(
-        deadline_s=0.5, task="pour-tea", seed=SEED, task_params={"disturbance": disturbance},
+        deadline_s=BENCH_DEADLINE_S, task="pour-tea", seed=SEED, task_params={"disturbance": disturbance},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == EXPECTED_ALARM[disturbance]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+from code_as_monitor.bench.episode import BENCH_DEADLINE_S
 from code_as_monitor.sim.episode import run_open_loop
 
 SEED = 0
@@ -18,7 +19,7 @@ EXPECTED_ALARM = {"a": "steady_pen", "b": "carried_pen", "c": "over_pen_holder"}
 def _recovers(disturbance: str) -> None:
     assert not run_open_loop("slot-pen", seed=SEED, disturbance=disturbance).success
     s = run_closed_loop(ClosedLoopConfig(
-        deadline_s=0.5, task="slot-pen", seed=SEED, task_params={"disturbance": disturbance},
+        deadline_s=BENCH_DEADLINE_S, task="slot-pen", seed=SEED, task_params={"disturbance": disturbance},
                                          tracker="sim", video=False), None)
     alarms = [a["constraint_id"] for a in s["episode"]["alarms"]]
     assert alarms and alarms[0] == EXPECTED_ALARM[disturbance]
