@@ -6,6 +6,8 @@ piled on one another (degenerate lines and surfaces), elements swapped, historie
 static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
 up to the suction tip) and placements (one element put just above another: a block over its target).
+Elements of one object part (``groups``: several point elements when lines and surfaces are handed over as
+unconnected points) move together in the meetings and placements, as the part they stand for would.
 Every array is world frame, metres; times are seconds.
 """
 
@@ -104,10 +106,13 @@ decimetres rarely reach. All ordered pairs up to this many, else a seeded sample
 
 
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
-                history_t: np.ndarray | None, t: float, n: int, seed: int = 0) -> list[Probe]:
+                history_t: np.ndarray | None, t: float, n: int, seed: int = 0,
+                groups: dict[int, list[int]] | None = None) -> list[Probe]:
     """The unperturbed state first, then ``n`` perturbations cycling through the families above, then the
     turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`) and the placements
-    (:data:`MAX_PLACEMENTS`)."""
+    (:data:`MAX_PLACEMENTS`). ``groups``: element id -> the ids of its object part (itself included; None or a
+    missing id: the element alone); a meeting or placement moves an element's whole group rigidly, except
+    between two elements of one group."""
     base = normalise_state(elements, history, history_t, t)
     probes = [Probe("the current state (unperturbed)", *base)]
     ids = sorted(base[0])
@@ -199,13 +204,25 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         probes += [turning_history(i) for _ in range(TURNS_PER_ELEMENT)]
     meet_rng = np.random.default_rng([seed, 2])  # its own stream too
 
+    def group_pair(a: int, b: int) -> tuple[list[int], list[int]]:
+        ga = [i for i in (groups or {}).get(a, [a]) if i in base[0]] or [a]
+        gb = [i for i in (groups or {}).get(b, [b]) if i in base[0]] or [b]
+        return ([a], [b]) if b in ga else (ga, gb)
+
+    def points_of(E: dict[int, np.ndarray], g: list[int]) -> np.ndarray:
+        return np.concatenate([E[i] for i in g], axis=0)
+
     def meeting(a: int, b: int) -> Probe:
         E0, H0, Ht0 = base
+        ga, gb = group_pair(a, b)
         dz = float(meet_rng.uniform(-0.02, 0.02))
         lift = float(meet_rng.uniform(0.06, 0.15))  # b rose: a carried up, even from where b started
         E = {i: p.copy() for i, p in E0.items()}
-        E[b] = E[b] + np.array([0.0, 0.0, lift])
-        E[a] = E[a] + (E[b].mean(axis=0) - E[a].mean(axis=0) + np.array([0.0, 0.0, dz]))
+        for i in gb:
+            E[i] = E[i] + np.array([0.0, 0.0, lift])
+        o = points_of(E, gb).mean(axis=0) - points_of(E, ga).mean(axis=0) + np.array([0.0, 0.0, dz])
+        for i in ga:
+            E[i] = E[i] + o
         H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
         Ht = np.concatenate([Ht0 - _dt(Ht0), [t]])
         return Probe(f"element {b} raised {lift:.2f} m and element {a} moved since the oldest frame to it "
@@ -220,10 +237,12 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     if len(pairs) > MAX_PLACEMENTS:
         pairs = [pairs[k] for k in sorted(place_rng.choice(len(pairs), MAX_PLACEMENTS, replace=False))]
     for i, j in pairs:
-        top = base[0][j][:, 2].max()
+        gi, gj = group_pair(i, j)
+        Pi, Pj = points_of(base[0], gi), points_of(base[0], gj)
+        top = Pj[:, 2].max()
         lift = place_rng.uniform(0.01, 0.06)
-        o = base[0][j].mean(axis=0) - base[0][i].mean(axis=0)
-        o[2] = top + lift - base[0][i][:, 2].min()
+        o = Pj.mean(axis=0) - Pi.mean(axis=0)
+        o[2] = top + lift - Pi[:, 2].min()
         probes.append(Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
-                            *_map_elements(base, {i: lambda p, o=o: p + o})))
+                            *_map_elements(base, {k: lambda p, o=o: p + o for k in gi})))
     return probes
