@@ -44,3 +44,13 @@ def test_one_element_per_part_gives_the_same_probes_as_no_groups() -> None:
     assert [p.description for p in a] == [p.description for p in b]
     for p, q in zip(a, b):
         assert all(np.array_equal(p.elements[i], q.elements[i]) for i in p.elements)
+
+
+def test_a_parts_points_turn_together_into_their_current_pose() -> None:
+    probes = make_probes(ELEMENTS, None, None, 1.0, 4, groups={0: [0, 1], 1: [0, 1], 2: [2]})
+    turns = [p for p in probes if "elements 0, 1 (one part) turned" in p.description]
+    assert len(turns) >= 2
+    for p in turns:
+        gap = np.linalg.norm(p.history[0][:, 0] - p.history[1][:, 0], axis=1)
+        assert np.allclose(gap, 0.1), "a rigid turn keeps the points' distance"
+        assert np.allclose(p.history[0][-1], ELEMENTS[0]) and not np.allclose(p.history[0][0], ELEMENTS[0])

@@ -7,7 +7,8 @@ static, moving, turning (a line or surface that rotated into its current pose), 
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
 up to the suction tip) and placements (one element put just above another: a block over its target).
 Elements of one object part (``groups``: several point elements when lines and surfaces are handed over as
-unconnected points) move together in the meetings and placements, as the part they stand for would.
+unconnected points) move together in the meetings and placements and turn together in turning histories, as the
+part they stand for would.
 Every array is world frame, metres; times are seconds.
 """
 
@@ -179,14 +180,17 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
 
     turn_rng = np.random.default_rng([seed, 1])  # its own stream: the other probes stay as they were
 
-    def turning_history(i: int) -> Probe:
+    def turning_history(i: int, members: list[int] | None = None) -> Probe:
+        g = members or [i]
         axis = turn_rng.normal(size=3)
         angle = turn_rng.uniform(0.2, np.pi / 2) * turn_rng.choice([-1.0, 1.0])
         T = int(turn_rng.choice([2, 3, max(T0, 5)]))
         E, H, Ht = _with_history(base, T, t, None)
-        c = E[i].mean(axis=0)
-        H[i] = np.stack([(E[i] - c) @ _rotation(axis, angle * w).T + c for w in np.linspace(1.0, 0.0, T)])
-        return Probe(f"history of T={T} frames in which element {i} turned {np.degrees(angle):.0f} deg (axis "
+        c = np.concatenate([E[k] for k in g], axis=0).mean(axis=0)
+        for k in g:
+            H[k] = np.stack([(E[k] - c) @ _rotation(axis, angle * w).T + c for w in np.linspace(1.0, 0.0, T)])
+        what = f"element {i}" if len(g) == 1 else f"elements {', '.join(map(str, g))} (one part)"
+        return Probe(f"history of T={T} frames in which {what} turned {np.degrees(angle):.0f} deg (axis "
                      f"{_fmt(axis)}) into its current pose", E, H, Ht)
 
     families: list[Callable[[], Probe]] = [
@@ -202,6 +206,10 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         probes.append(make())
     for i in (i for i in ids if len(base[0][i]) >= 2):  # lines and surfaces: a few turning histories each
         probes += [turning_history(i) for _ in range(TURNS_PER_ELEMENT)]
+    parts = sorted({tuple(g) for g in (groups or {}).values() if len([k for k in g if k in base[0]]) >= 2})
+    for g in parts:  # several elements of one part (its points, with CP off): the part turns as one
+        members = [k for k in g if k in base[0]]
+        probes += [turning_history(members[0], members) for _ in range(TURNS_PER_ELEMENT)]
     meet_rng = np.random.default_rng([seed, 2])  # its own stream too
 
     def group_pair(a: int, b: int) -> tuple[list[int], list[int]]:

@@ -19,6 +19,8 @@ missing, as it does for an object no view sees).
 
 from __future__ import annotations
 
+from typing import Any
+
 import cv2
 import numpy as np
 
@@ -51,14 +53,15 @@ def orb_keypoints(rgb: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return uv
 
 
-def lifted_keypoints(rgb: np.ndarray, mask: np.ndarray, points: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """World points ``(N, 3)`` of the ORB keypoints inside ``mask`` with a depth reading; ``points`` (H, W, 3) and
-    ``valid`` (H, W) are the view lifted with depth (:func:`~code_as_monitor.geometry.backproject.lift_depth`)."""
+def lifted_keypoints(rgb: np.ndarray, mask: np.ndarray, lifted: Any) -> np.ndarray:
+    """World points ``(N, 3)`` of the ORB keypoint pixels inside ``mask`` (H, W) with a depth reading; ``lifted`` is
+    the view's :class:`~code_as_monitor.geometry.backproject.LiftedView` (one point per keypoint pixel)."""
     uv = orb_keypoints(rgb, mask)
     if len(uv) == 0:
         return np.zeros((0, 3))
-    keep = valid[uv[:, 1], uv[:, 0]] & np.asarray(mask, dtype=bool)[uv[:, 1], uv[:, 0]]
-    return points[uv[keep, 1], uv[keep, 0]].reshape(-1, 3)
+    at = np.zeros(np.asarray(mask).shape, dtype=bool)
+    at[uv[:, 1], uv[:, 0]] = True
+    return lifted.points(at & np.asarray(mask, dtype=bool))
 
 
 def ccw_about_normal(corners: np.ndarray) -> np.ndarray:
@@ -102,9 +105,9 @@ def element_from_keypoints(eid: int, spec: ElementSpec, keypoints: np.ndarray, s
 
 
 def keypoint_element(eid: int, spec: ElementSpec, views: list[tuple], min_pixels: int) -> Element | None:
-    """The element of ``spec`` from per-view ``(view, points (H, W, 3), valid (H, W), SegmentResult)``: ORB
-    keypoints inside each view's instance mask (of at least ``min_pixels`` pixels), pooled, clustered."""
-    pooled = [lifted_keypoints(view.rgb, res.instance_mask, pm, ok) for view, pm, ok, res in views
+    """The element of ``spec`` from per-view ``(view, LiftedView, SegmentResult)``: ORB keypoints inside each view's
+    instance mask (of at least ``min_pixels`` pixels), pooled, clustered."""
+    pooled = [lifted_keypoints(view.rgb, res.instance_mask, lifted) for view, lifted, res in views
               if int(np.asarray(res.instance_mask).sum()) >= min_pixels]
     if not pooled:
         return None

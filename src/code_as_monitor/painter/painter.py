@@ -130,8 +130,9 @@ class Painter:
         self, obs: Observation, specs: dict[int, ElementSpec], texts: dict[int, str] | None = None
     ) -> dict[int, Element | None]:
         """Build several elements in one pass over each view: every view is segmented for all of them at once
-        (:meth:`Segmenter.segment_many`) and lifted once (:func:`~code_as_monitor.geometry.lift_depth`); then
-        each element is fitted from its own points. None for an element no view sees (or whose fit fails).
+        (:meth:`Segmenter.segment_many`) and its depth made ready once
+        (:class:`~code_as_monitor.geometry.backproject.LiftedView`: only the masks' pixels are lifted); then each
+        element is fitted from its own points. None for an element no view sees (or whose fit fails).
 
         A view whose depth does not match its camera is skipped (logged); it never stops the others.
         """
@@ -157,12 +158,12 @@ class Painter:
         per_view = self._segment_and_lift(obs, [s for _, s in masked], [texts.get(e, "") for e, _ in masked])
         support = self._support(obs) if per_view else None
         for j, (eid, spec) in enumerate(masked):
-            out[eid] = self._fit(eid, spec, [(v, pm, ok, res[j]) for v, pm, ok, res in per_view], support)
+            out[eid] = self._fit(eid, spec, [(v, lifted, res[j]) for v, lifted, res in per_view], support)
         return out
 
     def _segment_and_lift(self, obs: Observation, specs: list[ElementSpec], texts: list[str]) -> list[tuple]:
-        """Per usable view: (view, points (H, W, 3), valid (H, W), [SegmentResult per spec])."""
-        from code_as_monitor.geometry.backproject import lift_depth
+        """Per usable view: (view, LiftedView, [SegmentResult per spec])."""
+        from code_as_monitor.geometry.backproject import LiftedView
 
         out = []
         for name, view in obs.views.items():
@@ -170,17 +171,17 @@ class Painter:
             if bad:
                 log.warning("view %r skipped: %s", name, bad)
                 continue
-            pm, ok = lift_depth(view.depth, view.camera)
+            lifted = LiftedView(view.depth, view.camera)
             many = getattr(self.segmenter, "segment_many", None)
             if many is not None:
                 res = many(view, specs, texts)
             else:
                 res = [self.segmenter.segment(view, s, t) for s, t in zip(specs, texts)]  # type: ignore[attr-defined]
-            out.append((view, pm, ok, res))
+            out.append((view, lifted, res))
         return out
 
     def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None) -> Element | None:
-        """One element from its per-view (view, points, valid, SegmentResult)."""
+        """One element from its per-view (view, LiftedView, SegmentResult)."""
         from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
         from code_as_monitor.geometry.carve import CarveView
         from code_as_monitor.geometry.part_cloud import fuse_part
@@ -189,16 +190,16 @@ class Painter:
             from code_as_monitor.painter.keypoint_elements import keypoint_element
 
             return keypoint_element(eid, spec, views, self.min_pixels)
-        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, _, r in views]
+        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, r in views]
         # A part seen well enough in some view is built from part masks only: falling back to the whole
         # object in a view that sees the part too small would pull the element off the part.
         part_seen = bool(spec.part) and any(pc >= self.min_pixels for pc, _ in counts)
         clouds, carve_views = [], []
-        for (view, pm, ok, res), (pc, ic) in zip(views, counts):
+        for (view, lifted, res), (pc, ic) in zip(views, counts):
             mask = res.part_mask if part_seen or pc >= self.min_pixels else res.instance_mask
             if (pc if mask is res.part_mask else ic) < self.min_pixels:
-                mask = np.zeros(ok.shape, dtype=bool)  # adds no points, but its depth still carves free space
-            clouds.append(pm[mask & ok])
+                mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
+            clouds.append(lifted.points(mask))
             siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
             carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings))
         if not any(len(c) for c in clouds):
@@ -213,7 +214,7 @@ class Painter:
         if not spec.part or not part_seen:
             el.object_cloud = el.cloud
         else:
-            whole = [pm[r.instance_mask & ok] for (_, pm, ok, r), (_, ic) in zip(views, counts)
+            whole = [lifted.points(r.instance_mask) for (_, lifted, r), (_, ic) in zip(views, counts)
                      if ic >= self.min_pixels]
             try:
                 Q, vs, _ = fuse_part(whole, [], name=f"object of {spec.name!r}")

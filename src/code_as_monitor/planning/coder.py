@@ -1,8 +1,9 @@
 """The monitor coder: subgoal, constraints, annotated views and the element legend -> program source.
 
 The request says each thing once (compact JSON: constraints refer to elements by id, the legend is one short
-array per element) and the annotated views go at the cheapest detail that keeps their pixels. A request that
-comes again word for word (a re-planned subgoal) reuses the program already accepted for it, re-checked.
+array per element, named only where its owner does not say what it is) and the annotated views go at the
+cheapest detail that keeps their pixels. A request that comes again word for word (a re-planned subgoal) reuses
+the program already accepted for it, re-checked.
 
 The answer's code fences are stripped, the source must parse, and then the caller's ``check``
 (static validation and path coverage, from the monitor package) must accept it. A rejected program
@@ -20,6 +21,7 @@ from __future__ import annotations
 import ast
 import json
 import logging
+import re
 import time
 from collections.abc import Callable, Iterable
 
@@ -133,17 +135,27 @@ def owner_text(owner: tuple[str, str]) -> str:
     return f"{owner[0]}/{owner[1]}" if owner[1] else owner[0]
 
 
+def legend_row(e: Element) -> list:
+    """``[id, kind, "object/part"]``, with the element's name appended only when it says more than its owner
+    (``"suction cup tip"`` for ``robot/tip``; not ``"green block"`` for ``green_block``)."""
+    row: list = [e.id, e.kind.value, owner_text(e.owner)]
+    said = set(re.split(r"[\W_]+", owner_text(e.owner).lower()))
+    if set(re.split(r"[\W_]+", e.name.lower())) - said - {""}:
+        row.append(e.name)
+    return row
+
+
 def coder_request(subgoal: Subgoal, elements: list[Element], feedback: str | None = None) -> dict:
-    """The coder's request: the subgoal, its action, each constraint with the ids of its parts' elements (the
-    parts themselves are not repeated: the legend says what each element is), the compact legend
-    ``[id, kind, "object/part", name]`` and, after a rejection, why."""
+    """The coder's request: the subgoal, each constraint with its phase, thresholds and the ids of its parts'
+    elements (the parts themselves are not repeated: the legend says what each element is), the compact legend
+    (:func:`legend_row`) and, after a rejection, why. The action (the subgoal's sentence names it) and
+    ``proactive`` (what the agent does with an alarm, not what the program computes) are left out."""
     ids = resolve_element_ids(subgoal, elements)
     request: dict = {
         "subgoal": subgoal.text,
-        "action": subgoal.action.to_dict() if subgoal.action else None,
-        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "proactive": c.proactive,
-                         "thresholds": dict(c.thresholds), "element_ids": ids[c.id]} for c in subgoal.constraints],
-        "elements": [[e.id, e.kind.value, owner_text(e.owner), e.name] for e in elements],
+        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "thresholds": dict(c.thresholds),
+                         "element_ids": ids[c.id]} for c in subgoal.constraints],
+        "elements": [legend_row(e) for e in elements],
     }
     if feedback:
         request["feedback"] = feedback

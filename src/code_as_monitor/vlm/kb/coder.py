@@ -29,13 +29,15 @@ def write_check(c: Spec) -> str:
 
 
 def legend(request: dict[str, Any]) -> dict[int, dict[str, str]]:
-    """Element id -> part ``{name, obj, part, kind}`` from the request's legend ``[id, kind, "object/part", name]``."""
+    """Element id -> part ``{name, obj, part, kind}`` from the request's legend ``[id, kind, "object/part"]`` or
+    ``[id, kind, "object/part", name]`` (without a name, the owner's words are its name)."""
     out: dict[int, dict[str, str]] = {}
     for row in request.get("elements") or []:
-        if not isinstance(row, list) or len(row) != 4:
-            raise VLMError(f"kb: legend entry {row!r} is not [id, kind, object/part, name]")
-        eid, kind, owner, name = row
+        if not isinstance(row, list) or len(row) not in (3, 4):
+            raise VLMError(f"kb: legend entry {row!r} is not [id, kind, object/part(, name)]")
+        eid, kind, owner = row[:3]
         obj, _, part = str(owner).partition("/")
+        name = str(row[3]) if len(row) == 4 else " ".join(w for w in (obj.replace("_", " "), part) if w)
         out[int(eid)] = {"name": str(name), "obj": obj, "part": part, "kind": str(kind)}
     return out
 
