@@ -49,3 +49,16 @@ def test_rows_give_rates_per_setting_and_the_average_only_with_all_four() -> Non
     assert rows["cam-mv-off"]["avg"] is None and rows["cam-mv-off"]["cells"][1] is None
     assert [r["method"] for r in ablation_rows(recs, "slot-pen")] == ["cam"]
     assert ablation_rows(recs, "pour-tea") == []
+
+
+def test_a_closed_loop_episode_carries_its_setting_into_the_monitor_config() -> None:
+    from code_as_monitor.bench.closed_loop import ClosedLoopConfig
+
+    assert ClosedLoopConfig(ablation="mv-off").monitor_config().cameras == ["front"]
+    assert ClosedLoopConfig(ablation="cs-off").monitor_config().element_source == "orb-keypoints"
+    assert ClosedLoopConfig(ablation="cp-off").monitor_config().connect_points is False
+    assert ClosedLoopConfig(ablation="proactive-only").monitor_config().checks == "proactive"
+    full = ClosedLoopConfig().monitor_config()
+    assert (full.cameras, full.element_source, full.connect_points, full.checks) == (None, "part-masks", True, "all")
+    with pytest.raises(ConfigError, match="unknown ablation 'nope'"):
+        ClosedLoopConfig(ablation="nope")
