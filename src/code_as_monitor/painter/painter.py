@@ -17,10 +17,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from code_as_monitor.core.constraints import Subgoal
-from code_as_monitor.core.elements import Element, ElementSpec
-from code_as_monitor.core.errors import CamError, PerceptionError
+from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
+from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.painter.draw import draw_elements
+from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
+from code_as_monitor.painter.sources import ORB_KEYPOINTS, PART_MASKS, check_element_source
 
 if TYPE_CHECKING:
     from code_as_monitor.geometry.support import SupportPlane
@@ -77,12 +79,24 @@ class Painter:
         segmenter: any object with ``segment(view, spec, constraint_text) -> SegmentResult``
             (``code_as_monitor.perception.segmenters``).
         min_pixels: a view contributes to an element only when its mask has at least this many pixels.
+        element_source: ``part-masks`` (the method: constraint-aware instance and part masks, fitted) or
+            ``orb-keypoints`` (the ablation "CS off": ORB keypoints on the object's image region, lifted with depth
+            and clustered with k-means, :mod:`~code_as_monitor.painter.keypoint_elements`; not DINOv2).
+        connect_points: form lines and surfaces (the method). False (the ablation "CP off",
+            :mod:`~code_as_monitor.painter.point_elements`): every element is handed over as unconnected points,
+            each a point element of its own, and the subgoal's constraints are rewritten to use them.
     """
 
-    def __init__(self, segmenter: object, min_pixels: int = 12) -> None:
+    def __init__(self, segmenter: object, min_pixels: int = 12, element_source: str = PART_MASKS,
+                 connect_points: bool = True) -> None:
         self.segmenter = segmenter
         self.min_pixels = min_pixels
+        self.element_source = check_element_source(element_source)
+        if not isinstance(connect_points, bool):
+            raise ConfigError(f"Painter.connect_points must be true or false, got {connect_points!r}")
+        self.connect_points = connect_points
         self._plane: tuple[int, SupportPlane | None] | None = None
+        self._split: dict[int, SplitPoint] = {}
 
     def _support(self, obs: Observation) -> SupportPlane | None:
         """The scene's support plane (the table) from this observation's depth, computed once per observation."""
@@ -95,8 +109,22 @@ class Painter:
     def build_element(
         self, obs: Observation, element_id: int, spec: ElementSpec, constraint_text: str = ""
     ) -> Element | None:
-        """Build one element from all views, or None when no view sees it."""
-        return self.build_elements(obs, {element_id: spec}, {element_id: constraint_text})[element_id]
+        """Build one element from all views, or None when no view sees it. With ``connect_points`` False, a point
+        split from a line or surface at the last :meth:`paint` is that element's point, rebuilt."""
+        split = self._split.get(element_id)
+        if split is not None and not self.connect_points and spec.obj == split.parent.obj \
+                and spec.part == split.parent.part:
+            whole = self.build_elements(obs, {split.parent_id: split.parent}, {split.parent_id: constraint_text})
+            el = whole[split.parent_id]
+            if el is None or len(el.points) <= split.index:
+                return None
+            p = Element.point(element_id, spec.name, el.points[split.index], el.owner)
+            p.cloud, p.object_cloud, p.support = el.cloud, el.object_cloud, el.support
+            return p
+        built = self.build_elements(obs, {element_id: spec}, {element_id: constraint_text})[element_id]
+        if built is not None and not self.connect_points and built.kind is not ElementKind.POINT:
+            built = Element.point(element_id, spec.name, built.points.mean(axis=0), built.owner)
+        return built
 
     def build_elements(
         self, obs: Observation, specs: dict[int, ElementSpec], texts: dict[int, str] | None = None
@@ -158,6 +186,10 @@ class Painter:
         from code_as_monitor.geometry.carve import CarveView
         from code_as_monitor.geometry.part_cloud import fuse_part
 
+        if self.element_source == ORB_KEYPOINTS:
+            from code_as_monitor.painter.keypoint_elements import keypoint_element
+
+            return keypoint_element(eid, spec, views, self.min_pixels)
         counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, r in views]
         # A part seen well enough in some view is built from part masks only: falling back to the whole
         # object in a view that sees the part too small would pull the element off the part.
@@ -203,6 +235,9 @@ class Painter:
         elements = [el for el in built.values() if el is not None]
         missing = [specs[i] for i, el in built.items() if el is None]
         elements.sort(key=lambda e: e.id)
+        self._split = {}
+        if not self.connect_points:
+            elements, specs, self._split = split_into_points(elements, specs, subgoal)
         images = self.draw(obs, elements)
         return PaintResult(elements, specs, images, missing, time.perf_counter() - t0)
 
