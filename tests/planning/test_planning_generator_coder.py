@@ -232,6 +232,25 @@ def test_coder_gives_up_with_a_specific_error():
         coder.write_program(Subgoal("idle"), [], {}, reject)
 
 
+def test_coder_does_not_resend_a_request_it_just_had_answered():
+    """A re-ask answered with the same program, rejected with the same error, is not asked a third time: the
+    third request would be word for word the second."""
+    sg = _subgoal()
+
+    def reject(source: str) -> None:
+        raise ProgramError("'during' checks that already fail on the starting state: check_attached")
+
+    be = Scripted(GOOD_PROGRAM, GOOD_PROGRAM, GOOD_PROGRAM)
+    with pytest.raises(VLMOutputError, match=r"after 2 attempt.*already fail"):
+        MonitorCoder(be).write_program(sg, _elements(sg), {}, reject, max_retries=2)
+    assert len(be.calls) == 2
+    other = GOOD_PROGRAM.replace('"ok"', '"fine"')
+    be = Scripted(GOOD_PROGRAM, other, other)  # a changed answer earns the next re-ask
+    with pytest.raises(VLMOutputError, match=r"after 3 attempt"):
+        MonitorCoder(be).write_program(sg, _elements(sg), {}, reject, max_retries=2)
+    assert len(be.calls) == 3
+
+
 def test_program_defines_checks():
     program_defines_checks("def check_a(E, H, t):\n    return True, ''\n", ["a"])
     with pytest.raises(ProgramError, match="missing function check_b"):

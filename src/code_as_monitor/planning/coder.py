@@ -215,8 +215,13 @@ class MonitorCoder:
             check: raises ProgramError with the text to send back when it rejects a program.
             max_retries: re-asks after a rejected program.
             feedback: why a previous program of this subgoal was rejected (regeneration).
+        A re-ask carries the original request, the last answer and its error; when the model answers a re-ask
+        with the program it was just told about and that program is rejected with the same error, the next
+        re-ask would be word for word the request just answered, so it is not sent (the model stands by a
+        program that the current state rejects, e.g. a ``during`` check that already fails at the start).
+
         Raises:
-            VLMOutputError: nothing acceptable after ``1 + max_retries`` calls.
+            VLMOutputError: nothing acceptable after ``1 + max_retries`` calls (or fewer, as above).
         """
         key = dump_request(coder_request(subgoal, elements)) if self.reuse and not feedback else None
         kept = self._kept.get(key) if key is not None else None
@@ -230,9 +235,10 @@ class MonitorCoder:
                 self.reused += 1
                 return kept
         messages = self.build_messages(subgoal, elements, annotated_images, feedback)
-        last_error = ""
+        last_error, last_answer, calls = "", None, 0
         request = messages
         for attempt in range(1 + max(0, max_retries)):
+            calls = attempt + 1
             t0 = time.monotonic()
             resp = self.backend.complete(request, purpose=PURPOSE, schema=PROGRAM_SCHEMA)
             self.usage.record(PURPOSE, resp, time.monotonic() - t0)
@@ -245,8 +251,12 @@ class MonitorCoder:
                     raise ProgramError(f"syntax error at line {exc.lineno}: {exc.msg}") from None
                 check(source)
             except ProgramError as exc:
-                last_error = str(exc)
+                repeated = (resp.text, str(exc)) == (last_answer, last_error)
+                last_error, last_answer = str(exc), resp.text
                 log.info("monitor coder: program rejected (attempt %d): %s", attempt + 1, last_error)
+                if repeated:
+                    log.info("monitor coder: the same program and error again; not re-asking the same request")
+                    break
                 repair = render("repair", self.prompt_version, error=last_error, what="program")
                 # the original request, the last answer and its error: not the growing conversation
                 request = [*messages, Message.assistant(resp.text), Message.user(repair)]
@@ -255,6 +265,6 @@ class MonitorCoder:
                 self._kept[key] = source
             return source
         raise VLMOutputError(
-            f"monitor coder: no acceptable program after {1 + max(0, max_retries)} attempt(s); last problem: "
+            f"monitor coder: no acceptable program after {calls} attempt(s); last problem: "
             + last_error.replace("\n", " ")
         )
