@@ -208,6 +208,9 @@ def build_element_from_clouds(
     metres, one per view, in the order of ``views``, whose masks are the part's)."""
     P, vs, nviews = fuse_part(clouds, [v.camera.name for v in views], f"element {spec.name!r}")
     Q = dense_clusters(P, vs)
+    if len(Q) == 0:  # every point was isolated (a part a single view sees as a few scattered pixels)
+        raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): no points left to fit after "
+                           f"dropping isolated ones ({len(P)} fused)")
     try:
         pts, box = fit_part(Q, vs, spec.kind, views, support)
     except ElementError as exc:
