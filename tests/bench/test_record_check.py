@@ -35,3 +35,15 @@ def test_the_good_record_is_reported(tmp_path: Path) -> None:
     f = tmp_path / "r.jsonl"
     f.write_text(json.dumps(GOOD) + "\n")
     assert main(["report", str(f), "--out", str(tmp_path / "rep")]) == 0
+
+
+def test_an_episode_that_raised_has_no_time_and_is_still_reported(tmp_path: Path, capsys) -> None:
+    """``run_episode`` records an exception with ``sim_time_s`` None and ``error`` set; the report counts it as a
+    failure with an error (the ablation's MV-off rows had two), while a None time without an error stays refused."""
+    f = tmp_path / "r.jsonl"
+    raised = {**GOOD, "success": False, "sim_time_s": None, "error": "IndexError: index 0 is out of bounds"}
+    f.write_text(json.dumps(GOOD) + "\n" + json.dumps({**raised, "episode": 1}) + "\n")
+    assert main(["report", str(f), "--out", str(tmp_path / "rep"), "--print"]) == 0
+    assert "errors: 1" in capsys.readouterr().out
+    f.write_text(json.dumps({**GOOD, "sim_time_s": None}) + "\n")
+    assert main(["report", str(f), "--out", str(tmp_path / "rep2")]) == 2

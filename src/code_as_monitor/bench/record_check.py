@@ -30,7 +30,8 @@ def _problem(r: dict[str, Any]) -> str | None:
             return f"{key} must be an integer >= 0, got {r.get(key)!r}"
     if not isinstance(r.get("success"), bool):
         return f"success must be true or false, got {r.get('success')!r}"
-    if not _finite(r.get("sim_time_s")) or r["sim_time_s"] < 0:
+    errored = isinstance(r.get("error"), str) and r["error"] and r.get("sim_time_s") is None  # no time to report
+    if not errored and (not _finite(r.get("sim_time_s")) or r["sim_time_s"] < 0):
         return f"sim_time_s must be a finite number >= 0, got {r.get('sim_time_s')!r}"
     vlm = r.get("vlm")
     if not isinstance(vlm, dict):
