@@ -16,7 +16,10 @@ which loses nothing for views that fit in 512 x 512. ``tokens_ratio_if_vqa_low``
 VQA images gone at ``low`` too (the same principle applied to both).
 
 Run: ``nice -n 10 .venv/bin/python benchmarks/tokens.py [--episodes 2] [--suites cliport,table2]
-[--conditions stack-p0,rope]``. The last lines are machine-readable: ``tokens_ratio_<row>: <x> x``.
+[--conditions stack-p0,rope]``. The last lines are machine-readable: ``tokens_ratio_<row>: <x> x``, the same
+with DoReMi's VQA at low detail, and ``planner_only_ratio_<row>: <x> x``: CaM's planner tokens alone over DoReMi's
+total, the ratio CaM would have with a coder that cost nothing (the planner is the same for both methods, so where
+this is above 0.5, no coder, however lean, brings the row to 0.5).
 """
 
 from __future__ import annotations
@@ -75,11 +78,12 @@ def main(argv: list[str] | None = None) -> int:
     print("Estimated tokens per episode (kb planner/coder and vqa-standin, not a VLM; oracle sim tracker); "
           f"{args.episodes} episode(s) per row, seed 0")
     print(f"{'row':14s} {'CaM':>8s} {'DoReMi':>8s} {'ratio':>6s}  CaM by purpose | DoReMi by purpose")
-    ratios, low = {}, {}
+    ratios, low, planner_only = {}, {}, {}
     for c in conds:
         r = row(c, args.episodes, opts)
         cam, dor = r["cam"], r["doremi"]
         ratios[c] = cam["tokens"] / dor["tokens"] if dor["tokens"] else float("nan")
+        planner_only[c] = cam["by"].get("constraint_generator", 0.0) / dor["tokens"] if dor["tokens"] else float("nan")
         dor_low = dor["tokens"] - saving * dor["vqa_calls"]
         low[c] = cam["tokens"] / dor_low if dor_low else float("nan")
         fmt = lambda by: " ".join(f"{p} {n:.0f}" for p, n in sorted(by.items()))  # noqa: E731
@@ -90,6 +94,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"tokens_ratio_{c}: {x:.2f} x")
     for c, x in low.items():
         print(f"tokens_ratio_if_vqa_low_{c}: {x:.2f} x")
+    for c, x in planner_only.items():
+        print(f"planner_only_ratio_{c}: {x:.2f} x")
     return 0
 
 

@@ -156,3 +156,23 @@ def test_lift_depth_matches_per_pixel_lifting_and_zeroes_invalid_pixels() -> Non
         assert not valid[0, :4].any() and valid[0, 4]
         np.testing.assert_allclose(pts[valid], backproject_mask(valid, depth, cam), rtol=0, atol=1e-12)
         assert not pts[~valid].any()
+
+
+def test_lifted_view_lifts_only_the_asked_pixels_as_lift_depth_does() -> None:
+    """``LiftedView.points(mask)`` equals the whole-image lift at the mask's valid pixels, in the same order;
+    invalid readings inside the mask are skipped."""
+    from code_as_monitor.geometry.backproject import LiftedView, lift_depth
+
+    rng = np.random.default_rng(5)
+    depth = rng.uniform(0.2, 3.0, (48, 64)).astype(np.float32)
+    depth[rng.random((48, 64)) < 0.2] = np.nan
+    cam = _cam()
+    mask = np.zeros((48, 64), bool)
+    mask[10:20, 5:30] = True
+    pts, valid = lift_depth(depth, cam)
+    lifted = LiftedView(depth, cam)
+    assert (lifted.valid == valid).all()
+    got = lifted.points(mask)
+    assert got.shape == (int((mask & valid).sum()), 3) and 0 < len(got) < mask.sum()
+    np.testing.assert_array_equal(got, pts[mask & valid])
+    assert lifted.points(np.zeros_like(mask)).shape == (0, 3)

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from code_as_monitor.core import Action, Constraint, Element, ElementSpec, Subgoal
+from code_as_monitor.core import Action, Constraint, Element, ElementKind, ElementSpec, Subgoal
 from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
 from code_as_monitor.planning import (
     ConstraintGenerator,
@@ -145,12 +145,25 @@ def test_coder_request_and_reasks():
     req = extract_request(first[1].text)
     assert [c["element_ids"] for c in req["constraints"]] == [[0, 1], [1, 2]]
     assert "parts" not in req["constraints"][0]  # the legend says what each element is, once
-    assert req["elements"] == [[0, "point", "robot/tip", "tip"], [1, "point", "green_block", "green"],
-                               [2, "point", "red_block", "red"]]
+    # names that only repeat the owner's words are left out
+    assert req["elements"] == [[0, "point", "robot/tip"], [1, "point", "green_block"], [2, "point", "red_block"]]
+    assert "action" not in req and "proactive" not in req["constraints"][1]  # not what a program computes
     assert req["feedback"] == "branch never reached" and first[1].text.count("branch never reached") == 1
     assert [(im.label, im.detail) for im in first[1].images] == [("front", "low")]
     assert "syntax error" in be.calls[1][0][-1].text
     assert "missing function check_centred" in be.calls[2][0][-1].text
+
+
+def test_legend_rows_name_an_element_only_when_its_owner_does_not_say_it():
+    from code_as_monitor.planning.coder import legend_row
+
+    def row(name: str, owner: tuple[str, str]) -> list:
+        return legend_row(Element(3, name, ElementKind.POINT, np.zeros((1, 3)), owner))
+
+    assert row("suction cup tip", ("robot", "tip")) == [3, "point", "robot/tip", "suction cup tip"]
+    assert row("book centre", ("book", "cover")) == [3, "point", "book/cover", "book centre"]
+    assert row("bookshelf slot", ("bookshelf", "slot")) == [3, "point", "bookshelf/slot"]
+    assert row("Green block", ("green_block", "")) == [3, "point", "green_block"]
 
 
 def test_coder_views_lossless_and_one_image_when_they_fit():
@@ -217,6 +230,25 @@ def test_coder_gives_up_with_a_specific_error():
         coder.write_program(sg, _elements(sg), {}, reject, max_retries=1)
     with pytest.raises(ConfigError, match="no constraints"):
         coder.write_program(Subgoal("idle"), [], {}, reject)
+
+
+def test_coder_does_not_resend_a_request_it_just_had_answered():
+    """A re-ask answered with the same program, rejected with the same error, is not asked a third time: the
+    third request would be word for word the second."""
+    sg = _subgoal()
+
+    def reject(source: str) -> None:
+        raise ProgramError("'during' checks that already fail on the starting state: check_attached")
+
+    be = Scripted(GOOD_PROGRAM, GOOD_PROGRAM, GOOD_PROGRAM)
+    with pytest.raises(VLMOutputError, match=r"after 2 attempt.*already fail"):
+        MonitorCoder(be).write_program(sg, _elements(sg), {}, reject, max_retries=2)
+    assert len(be.calls) == 2
+    other = GOOD_PROGRAM.replace('"ok"', '"fine"')
+    be = Scripted(GOOD_PROGRAM, other, other)  # a changed answer earns the next re-ask
+    with pytest.raises(VLMOutputError, match=r"after 3 attempt"):
+        MonitorCoder(be).write_program(sg, _elements(sg), {}, reject, max_retries=2)
+    assert len(be.calls) == 3
 
 
 def test_program_defines_checks():

@@ -99,3 +99,43 @@ def test_book_checks_decide_right_on_constructed_states(make_elements, run_progr
             ("book", "spine"): [[0.4, 0.125, 0.024], [0.6, 0.125, 0.024]]}
     r = run_program(src, make_elements(stow, flat))
     assert not r["standing_book"][0] and not r["shelved_bookshelf"][0] and not r["conveyed_book"][0]
+
+
+# The grasp's start after a stow dropped the book standing in the shelf (book-c, episode 0): the painter saw only
+# the top of the spine above the shelf, a short line 20 cm up (world metres, from the record).
+IN_SHELF = {("robot", "tip"): [0.434, -0.172, 0.241], ("book", "cover"): [0.438, -0.176, 0.102],
+            ("book", "spine"): [[0.375, -0.186, 0.201], [0.368, -0.163, 0.201]]}
+
+
+def test_book_grasp_program_passes_path_coverage_on_a_book_resting_high(make_elements):
+    """A book resting with its whole spine above 15 cm is not 'up in the gripper': the aligned check must
+    still be able to fail there (an absolute height made it always True and path coverage rejected it)."""
+    from code_as_monitor.planning import MonitorCoder
+
+    grasp = _chain([None])[0]
+    els = make_elements(grasp, IN_SHELF)
+    box = sandbox.Sandbox()
+    box.start()
+    try:
+        src = MonitorCoder(KBBackend()).write_program(grasp, els, {}, lambda s: None)
+        coverage.check_path_coverage(src, grasp.constraints, {e.id: e.points for e in els}, None, None, 0.0, box)
+    finally:
+        box.close()
+
+
+def test_book_aligned_judges_a_resting_book_by_its_turn_and_a_risen_one_as_held(make_elements, run_program,
+                                                                                history_of):
+    from code_as_monitor.planning import MonitorCoder
+
+    grasp = _chain([None])[0]
+    start = make_elements(grasp, IN_SHELF)
+    src = MonitorCoder(KBBackend()).write_program(grasp, start, {}, lambda s: None)
+    turned = make_elements(grasp, {**IN_SHELF, ("book", "spine"): [[0.36, -0.18, 0.201], [0.383, -0.169, 0.201]]})
+    assert not run_program(src, turned, history_of(start, turned))["aligned_book"][0]
+    lifted = make_elements(grasp, {**IN_SHELF, ("book", "spine"): [[0.36, -0.18, 0.30], [0.383, -0.169, 0.30]]})
+    assert run_program(src, lifted, history_of(start, lifted))["aligned_book"][0]
+    flat_turned = make_elements(grasp, {**BOOK_STARTS[0], ("book", "spine"): [[0.42, 0.06, 0.16],
+                                                                               [0.52, 0.23, 0.16]]})
+    flat = make_elements(grasp, BOOK_STARTS[0])
+    assert run_program(src, flat_turned, history_of(flat, flat_turned))["aligned_book"][0], \
+        "a book risen 14 cm with the gripper may turn"

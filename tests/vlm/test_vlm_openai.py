@@ -280,7 +280,7 @@ def test_the_server_gets_the_lean_prompts_with_their_images_and_details(server, 
     import cv2
 
     from code_as_monitor.core import Element
-    from code_as_monitor.planning.coder import legend_specs
+    from code_as_monitor.planning.coder import legend_row, legend_specs
 
     front = np.zeros((240, 320, 3), np.uint8)
     front[0, 0] = (255, 0, 0)
@@ -307,6 +307,5 @@ def test_the_server_gets_the_lean_prompts_with_their_images_and_details(server, 
     coder.write_program(sg, els, {"front": front}, basic_check([c.id for c in sg.constraints]))
     user = server.requests[1]["messages"][1]["content"]
     assert [p["image_url"]["detail"] for p in user if p["type"] == "image_url"] == ["low"]
-    legend = "[" + ",".join(f'[{e.id},"{e.kind.value}","{e.owner[0]}{"/" + e.owner[1] if e.owner[1] else ""}",'
-                            f'"{e.name}"]' for e in els) + "]"
+    legend = json.dumps([legend_row(e) for e in els], separators=(",", ":"))
     assert f'"elements":{legend}' in user[0]["text"]

@@ -48,7 +48,8 @@ def build_stages(config: MonitorConfig, on_frame: FrameFn | None = None, on_prom
         backend = make_backend(VLMBackendConfig.from_name(config.backend, **config.backend_options))
     generator = ConstraintGenerator(backend, skills=skills)
     coder = MonitorCoder(backend, usage=generator.usage)
-    painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)))
+    painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)),
+                      element_source=config.element_source, connect_points=config.connect_points)
     tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
     runtime = MonitorRuntime(deadline_s=config.deadline_s, allow_unconfined=config.allow_unconfined or None)
     checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),

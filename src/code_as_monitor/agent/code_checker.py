@@ -13,10 +13,12 @@ A check that reads a stale element (lost by the tracker) gets no verdict that fr
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
@@ -54,6 +56,7 @@ class CodeChecker:
         self.on_frame = on_frame
         self.on_prompt = on_prompt
         self._settling = False
+        self._unwatched = False
 
     def start_episode(self, obs: Observation) -> None:
         return None
@@ -63,6 +66,18 @@ class CodeChecker:
 
     # --- subgoal start --------------------------------------------------------------------------------
     def begin(self, index: int, subgoal: Subgoal, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        kept = kept_constraints(subgoal.constraints, self.cfg.checks)
+        if len(kept) != len(subgoal.constraints):
+            ctx.emit("checks_dropped", t=obs.t, checks=self.cfg.checks,
+                     dropped=[c.id for c in subgoal.constraints if all(c is not k for k in kept)])
+            # A copy: the planner's subgoal (the next plan's "previous") keeps every constraint.
+            subgoal = replace(subgoal, constraints=[replace(c, parts=list(c.parts)) for c in kept])
+        self._unwatched = not subgoal.constraints
+        if self._unwatched:  # no check of the kind kept: the policy's own "done" ends the subgoal
+            self._subgoal, self._attempts, self._settling = subgoal, 0, False
+            self._period = 1.0 / self.cfg.frame_hz
+            self._next_frame = obs.t + self._period
+            return None
         painted = self.painter.paint(obs, subgoal)
         for m in painted.missing:
             ctx.emit("element_missing", t=obs.t, spec=m.to_dict())
@@ -118,6 +133,10 @@ class CodeChecker:
             return self._settle(obs, ctx)
         self._next_frame += self._period
         end = self._end_of
+        if self._unwatched:
+            if policy_done:
+                return end("success", f"policy finished (no {self.cfg.checks} check to run)")
+            return end("timeout", "time limit reached during the subgoal") if ctx.out_of_time(obs.t) else None
         try:
             verdicts, tr = self._monitor_frame(obs, ctx)
         except PerceptionError as exc:

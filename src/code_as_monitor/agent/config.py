@@ -11,9 +11,11 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from code_as_monitor.agent.check_modes import check_mode
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.painter.sources import check_element_source
 
 
 @dataclass
@@ -40,6 +42,10 @@ class AgentConfig:
             as moved.
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
+        checks: which of each subgoal's checks run (an ablation switch, :mod:`~code_as_monitor.agent.check_modes`):
+            ``all`` (default), ``reactive`` (only constraints with ``proactive`` False) or ``proactive`` (only
+            those with it True). The planner and the feedback are unchanged; the dropped constraints are neither
+            painted nor coded nor checked.
     """
 
     frame_hz: float = 10.0
@@ -53,6 +59,7 @@ class AgentConfig:
     refresh_on_done: bool = True
     refresh_motion: float = 0.03
     settle_frames: int = 5
+    checks: str = "all"
 
     def __post_init__(self) -> None:
         name = type(self).__name__
@@ -67,6 +74,7 @@ class AgentConfig:
         for f in ("code_retries", "upon_dwell_frames", "settle_frames"):
             check_count(name, f, getattr(self, f), 0)
         check_range(name, "refresh_motion", self.refresh_motion, 0.0, None)
+        check_mode(self.checks, f"{name}.checks")
 
 
 @dataclass
@@ -81,6 +89,14 @@ class MonitorConfig(AgentConfig):
         cameras: view names the monitor uses; None: every view of each observation.
         deadline_s: the sandbox's per-frame deadline for running every check (seconds); a frame past
             it is a program fault for every check (no verdict). 20 ms suits 10 Hz on an idle machine.
+        element_source: how the painter forms elements (an ablation switch, ``painter.ELEMENT_SOURCES``):
+            ``part-masks`` (default: the segmenter's constraint-aware instance and part masks) or
+            ``orb-keypoints`` (classical OpenCV ORB keypoints on the object's image region, lifted with depth and
+            clustered with scikit-learn k-means: our offline analogue of the paper's "CS off" row, which used
+            DINOv2 points; it is not DINOv2, and it knows no parts).
+        connect_points: form line and surface elements (default). False (the paper's "CP off"): every element
+            is handed over as unconnected 3-D points (a line as its two ends, a surface as its corners, each a
+            point element of its own); the coder must recombine them in code.
         allow_unconfined: run generated monitor code even where the worker's kernel confinement (seccomp,
             no_new_privs, namespaces) cannot be installed: an explicit opt-out, off by default (then such a
             machine refuses to run generated code and says why). ``CAM_ALLOW_UNCONFINED=1`` does the same.
@@ -95,9 +111,14 @@ class MonitorConfig(AgentConfig):
     cameras: list[str] | None = None
     deadline_s: float = 0.020
     allow_unconfined: bool = False
+    element_source: str = "part-masks"
+    connect_points: bool = True
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        check_element_source(self.element_source, "MonitorConfig.element_source")
+        if not isinstance(self.connect_points, bool):
+            raise ConfigError(f"MonitorConfig.connect_points must be true or false, got {self.connect_points!r}")
         check_range("MonitorConfig", "deadline_s", self.deadline_s, *DEADLINE_S_RANGE)
         if not isinstance(self.allow_unconfined, bool):
             raise ConfigError(f"MonitorConfig.allow_unconfined must be true or false, got {self.allow_unconfined!r}")

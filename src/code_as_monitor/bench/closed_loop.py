@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.agent.ablations import ablation_fields
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
 from code_as_monitor.bench.artefacts import RunArtefacts, finish_early
 from code_as_monitor.core.checks import (
@@ -57,6 +58,8 @@ class ClosedLoopConfig:
         deadline_s: the sandbox's per-frame deadline (see ``MonitorConfig.deadline_s``).
         allow_unconfined: the explicit opt-out of the sandbox's kernel confinement (see
             ``MonitorConfig.allow_unconfined``).
+        ablation: a named ablation setting of the monitor (:mod:`code_as_monitor.agent.ablations`: ``full``,
+            ``mv-off``, ``cs-off``, ``cp-off``, ``reactive-only``, ``proactive-only``).
     """
 
     task: str = "stack-in-order"
@@ -75,6 +78,7 @@ class ClosedLoopConfig:
     max_replans: int = DEFAULT_MAX_REPLANS
     deadline_s: float = 0.020
     allow_unconfined: bool = False
+    ablation: str = "full"
 
     def __post_init__(self) -> None:
         name = "ClosedLoopConfig"
@@ -88,6 +92,7 @@ class ClosedLoopConfig:
         for f in ("task_params", "backend_options", "segmenter_options", "tracker_options"):
             if not isinstance(getattr(self, f), dict):
                 raise ConfigError(f"{name}.{f} must be a dict, got {getattr(self, f)!r}")
+        ablation_fields(self.ablation)
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""
@@ -98,6 +103,7 @@ class ClosedLoopConfig:
             segmenter_options=dict(self.segmenter_options), tracker=self.tracker,
             tracker_options=dict(self.tracker_options), frame_hz=self.camera_hz, max_replans=self.max_replans,
             time_limit_s=time_limit_s, deadline_s=self.deadline_s, allow_unconfined=self.allow_unconfined,
+            **ablation_fields(self.ablation),
         )
 
 

@@ -32,7 +32,8 @@ def reproduce_command(results: str | Path, r: dict[str, Any]) -> str:
     return f"cam reproduce {shlex.quote(str(results))} --key {shlex.quote(record_key_text(r))}"
 
 
-def run_command(task: str, episode_seed: int, params: dict[str, Any], options: dict[str, Any]) -> str:
+def run_command(task: str, episode_seed: int, params: dict[str, Any], options: dict[str, Any],
+                ablation: str = "full") -> str:
     """The ``cam run`` command that runs the same CaM episode as the benchmark (see the module docstring)."""
     from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS
     from code_as_monitor.bench.closed_loop import ClosedLoopConfig
@@ -47,6 +48,8 @@ def run_command(task: str, episode_seed: int, params: dict[str, Any], options: d
               "--max-replans", str(int(options.get("max_replans") if options.get("max_replans") is not None
                                        else DEFAULT_MAX_REPLANS)),  # the rlbench suite runs with 0
               "--deadline", f"{float(options.get('deadline_s', cfg.deadline_s)):g}"]
+    if ablation != "full":
+        words += ["--ablation", ablation]
     if options.get("backend_options"):
         words.append("# backend options: " + ", ".join(f"{k}={v}" for k, v in options["backend_options"].items()))
     return " ".join(shlex.quote(w) if not w.startswith("#") else w for w in words)

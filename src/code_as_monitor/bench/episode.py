@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
-from code_as_monitor.bench.protocol import Job, condition, episode_seed
+from code_as_monitor.bench.protocol import Job, ablation_of, condition, episode_seed, is_cam
 from code_as_monitor.core.checks import check_fields, check_positive
 from code_as_monitor.core.errors import ConfigError
 
@@ -125,10 +125,10 @@ def _alarms(alarms: list[dict[str, Any]], cfs: list[dict[str, Any] | None]) -> l
 
 
 def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions, run_dir: Path | None,
-             cfs: _Counterfactuals) -> dict[str, Any]:
+             cfs: _Counterfactuals, ablation: str = "full") -> dict[str, Any]:
     from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
 
-    cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend,
+    cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend, ablation=ablation,
                            backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
                            camera_hz=opts.camera_hz, video=run_dir is not None, deadline_s=opts.deadline_s,
                            **({} if opts.max_replans is None else {"max_replans": opts.max_replans}))
@@ -230,16 +230,17 @@ def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -
     rec: dict[str, Any] = {"v": RECORD_VERSION, "condition": job.condition, "method": job.method, "seed": job.seed,
                            "episode": job.episode, "episode_seed": seed, "task": cond.task,
                            "undisturbed": cond.undisturbed,
-                           "tracker": opts.tracker if job.method == "cam" else None}
-    if job.method == "cam":
+                           "tracker": opts.tracker if is_cam(job.method) else None}
+    if is_cam(job.method):
         from code_as_monitor.bench.commands import run_command
 
-        rec["run"] = run_command(cond.task, seed, dict(cond.params), opts.to_dict())
+        rec["ablation"] = ablation_of(job.method)
+        rec["run"] = run_command(cond.task, seed, dict(cond.params), opts.to_dict(), rec["ablation"])
     if video_dir is not None:
         video_dir.mkdir(parents=True, exist_ok=True)
     try:
-        if job.method == "cam":
-            out = _run_cam(cond.task, seed, dict(cond.params), opts, video_dir, cfs)
+        if is_cam(job.method):
+            out = _run_cam(cond.task, seed, dict(cond.params), opts, video_dir, cfs, ablation_of(job.method))
         else:
             out = _run_baseline(job.method, cond.task, seed, dict(cond.params), opts, video_dir, cfs)
         vlm = out["vlm"]

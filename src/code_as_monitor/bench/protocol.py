@@ -10,7 +10,10 @@ undisturbed condition (false alarms are counted there). ``table2``: the paper's 
 disturbance); a flagged episode is abandoned and another started until each cell has its valid episodes
 (:mod:`code_as_monitor.bench.restarts`). ``instructions``: conditions whose goal an instruction sets
 (a reversed tower, a two-block tower, 10 blocks swept, a drawer opened 10 cm, half of the rope square's opening
-closed), to run instructions end to end.
+closed), to run instructions end to end. ``ablation``: the paper's ablation table (stow-book, MV / CS / CP off, 10
+runs per disturbance setting) on the Table 2 conditions of slot-pen, stow-book and pour-tea, with CaM's ablation
+settings as methods (``cam-mv-off`` ... ; :mod:`code_as_monitor.agent.ablations`), plus reactive-only and
+proactive-only rows (the paper's supplementary table, IDs C and D).
 
 Episode seed: :func:`episode_seed` is a deterministic hash of (condition id, seed index, episode
 index), so every method sees the same scene and the same disturbance draws for the same key (as far
@@ -96,6 +99,9 @@ CONDITION_BY_ID = {c.id: c for c in CONDITIONS}
 SUITES: dict[str, tuple[str, ...]] = {
     s: tuple(c.id for c in CONDITIONS if c.suite == s) for s in ("cliport", "table2", "instructions", "rlbench")
 }
+# The ablation runs on Table 2's conditions of the paper's three ablated tasks, stow-book first (the paper's table).
+SUITES["ablation"] = tuple(c.id for t in ("stow-book", "slot-pen", "pour-tea") for c in CONDITIONS
+                           if c.suite == "table2" and c.task == t)
 SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     "cliport": {"seeds": 5, "episodes": 12, "methods": ("open-loop", "inner-monologue", "doremi", "cam")},
     # The paper's 10 runs per setting. Offline, DoReMi and Inner Monologue ask the single-image VQA
@@ -110,10 +116,29 @@ SUITE_DEFAULTS: dict[str, dict[str, Any]] = {
     # ``max_attempts_factor`` x ``episodes`` attempts (bench.restarts).
     "rlbench": {"seeds": 1, "episodes": 20, "methods": ("open-loop", "doremi", "cam"), "restarts": True,
                 "max_attempts_factor": 3, "options": {"max_replans": 0}},
+    # The paper's ablation: 10 runs per setting, rows = CaM's ablation settings.
+    "ablation": {"seeds": 1, "episodes": 10, "methods": ("cam", "cam-mv-off", "cam-cs-off", "cam-cp-off",
+                                                          "cam-reactive-only", "cam-proactive-only")},
 }
 
 METHODS: tuple[str, ...] = ("open-loop", "inner-monologue", "doremi", "cam")
 """Column order: the paper's CLIPort, +Inner Monologue, +DoReMi, +Ours."""
+ABLATION_METHODS: tuple[str, ...] = ("cam-mv-off", "cam-cs-off", "cam-cp-off", "cam-reactive-only",
+                                     "cam-proactive-only")
+"""CaM with one ablation setting each: ``cam-<name>`` runs ``ClosedLoopConfig(ablation=<name>)``."""
+ALL_METHODS: tuple[str, ...] = METHODS + ABLATION_METHODS
+
+
+def is_cam(method: str) -> bool:
+    """Whether ``method`` is Code-as-Monitor (full, or one of its ablation settings)."""
+    return method == "cam" or method in ABLATION_METHODS
+
+
+def ablation_of(method: str) -> str:
+    """The ablation setting of a CaM method (``full`` for ``cam``); ConfigError for another method."""
+    if not is_cam(method):
+        raise ConfigError(f"{method!r} is not a Code-as-Monitor method")
+    return "full" if method == "cam" else method[len("cam-"):]
 
 FULL = (5, 12)
 QUICK = (1, 4)
@@ -159,8 +184,8 @@ class BenchSpec:
 
     def __post_init__(self) -> None:
         for m in self.methods:
-            if m not in METHODS:
-                raise ConfigError(f"unknown method {m!r}; known: {', '.join(METHODS)}")
+            if m not in ALL_METHODS:
+                raise ConfigError(f"unknown method {m!r}; known: {', '.join(ALL_METHODS)}")
         for c in self.conditions:
             condition(c)
         check_count("BenchSpec", "seeds", self.seeds, 1)
@@ -183,6 +208,8 @@ class BenchSpec:
 
 
 __all__ = [
+    "ABLATION_METHODS",
+    "ALL_METHODS",
     "CONDITIONS",
     "CONDITION_BY_ID",
     "FULL",
@@ -193,6 +220,8 @@ __all__ = [
     "BenchSpec",
     "Condition",
     "Job",
+    "ablation_of",
     "condition",
     "episode_seed",
+    "is_cam",
 ]

@@ -23,14 +23,16 @@ from typing import Any
 
 from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
-from code_as_monitor.bench.protocol import CONDITIONS, METHODS
+from code_as_monitor.bench.protocol import ABLATION_METHODS, ALL_METHODS, CONDITIONS, METHODS
 from code_as_monitor.bench.record_check import check_episode_record
 from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
 from code_as_monitor.core.errors import RunError
 
 HEADERS = {"open-loop": "CLIPort (open-loop)", "inner-monologue": "+Inner Monologue", "doremi": "+DoReMi",
-           "cam": "+Ours (CaM)"}
+           "cam": "+Ours (CaM)", "cam-mv-off": "CaM, MV off", "cam-cs-off": "CaM, CS off (ORB)",
+           "cam-cp-off": "CaM, CP off", "cam-reactive-only": "CaM, reactive only",
+           "cam-proactive-only": "CaM, proactive only"}
 STANDIN_NOTE = ("Offline (backend `kb`), Inner Monologue's and DoReMi's VQA answers come from `vqa-standin`, "
                 "a rule-based single-image stand-in (colour blobs, 2-D image heuristics), not a VLM; the "
                 "planner of every method is the `kb` knowledge base, also a rule-based stand-in.")
@@ -87,7 +89,7 @@ def summarise(path: str | Path) -> dict[str, Any]:
     _check_records(path, recs)
     cells: dict[tuple[str, str], dict[str, Any]] = {}
     present_c = [c for c in CONDITIONS if any(r["condition"] == c.id for r in recs)]
-    present_m = [m for m in METHODS if any(r["method"] == m for r in recs)]
+    present_m = [m for m in ALL_METHODS if any(r["method"] == m for r in recs)]
     for c in present_c:
         for m in present_m:
             rs = [r for r in recs if r["condition"] == c.id and r["method"] == m]
@@ -325,7 +327,12 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     suites = {c.suite for c in s["conditions"]}
     title = {"table2": "Table 2 benchmark", "rlbench": "RLBench-style benchmark"}.get(
         suites.pop() if len(suites) == 1 else "", "CLIPort benchmark")
-    if title == "RLBench-style benchmark":
+    if set(s["methods"]) & set(ABLATION_METHODS):
+        from code_as_monitor.bench.report_ablation import ablation_markdown
+
+        title = "Ablation"
+        body_md = ablation_markdown(s) + "\n" + versions_note(s) + "\n"
+    elif title == "RLBench-style benchmark":
         from code_as_monitor.bench.report_rlbench import rlbench_markdown
 
         body_md = rlbench_markdown(s["records"]) + "\n" + versions_note(s) + "\n\n" + STANDIN_NOTE + "\n"

@@ -5,6 +5,7 @@
     cam bench --methods cam,doremi --conditions stack-p0.3,stack-q3 --seeds 2 --episodes 3
     cam bench --executor ray [--ray-address auto]       # needs the `ray` extra
     cam bench --suite rlbench --episodes 20             # RLBench table: 20 valid episodes per cell, restarts
+    cam bench --suite ablation                          # ablation rows (MV/CS/CP off, reactive/proactive only)
 
 Per-episode records are appended to --results as they finish; re-running the same command skips
 finished episodes made by the same code version (episodes made by other code are run again unless
@@ -32,11 +33,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser("bench", help="run the CLIPort benchmark (methods x conditions), resumable",
                               description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="1 seed x 4 episodes per condition")
-    p.add_argument("--suite", choices=("cliport", "table2", "instructions", "rlbench"), default="cliport",
+    p.add_argument("--suite", choices=("cliport", "table2", "instructions", "rlbench", "ablation"), default="cliport",
                    help="cliport: the paper's Table 1 conditions (default); table2: its Table 2 layout "
                         "(slot-pen None/(a)/(b)/(c), 10 runs, open-loop and cam); instructions: goals set by "
                         "instructions other than the paper's (open-loop and cam); rlbench: its RLBench table (six "
-                        "tasks, a noisy policy, a flagged episode abandoned and another started)")
+                        "tasks, a noisy policy, a flagged episode abandoned and another started); ablation: the "
+                        "paper's ablation rows on stow-book, slot-pen and pour-tea (None/(a)/(b)/(c), 10 runs), "
+                        "methods cam (full), cam-mv-off (front view only), cam-cs-off (elements from ORB keypoints "
+                        "on the object's region, lifted and k-means clustered: an offline analogue of the paper's "
+                        "DINOv2 points, not DINOv2), cam-cp-off (unconnected points), cam-reactive-only, "
+                        "cam-proactive-only")
     p.add_argument("--seeds", type=v.count(1, 1000), default=None, help="seeds per cell (default 5, quick 1)")
     p.add_argument("--episodes", type=v.count(1, 1000), default=None,
                    help="episodes per seed (default 12, quick 4); rlbench: valid episodes per cell (default 20)")
@@ -68,14 +74,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from code_as_monitor.bench.executors import ExecutorConfig
-    from code_as_monitor.bench.protocol import CONDITIONS, METHODS, QUICK, SUITE_DEFAULTS, SUITES, BenchSpec
+    from code_as_monitor.bench.protocol import ALL_METHODS, CONDITIONS, QUICK, SUITE_DEFAULTS, SUITES, BenchSpec
     from code_as_monitor.bench.runner import run_bench
     from code_as_monitor.cli.signals import sigterm_as_interrupt
 
     if args.list:
         for c in CONDITIONS:
             print(f"{c.id:12s} {c.task} {c.params}{'  (undisturbed)' if c.undisturbed else ''}")
-        print("methods:", ", ".join(METHODS))
+        print("methods:", ", ".join(ALL_METHODS))
         return 0
     suite = SUITE_DEFAULTS[args.suite]
     seeds = args.seeds if args.seeds is not None else (QUICK[0] if args.quick else suite["seeds"])

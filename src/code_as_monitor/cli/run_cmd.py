@@ -22,6 +22,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from code_as_monitor.agent.ablations import ABLATIONS
 from code_as_monitor.cli import validate as v
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, IMAGE_SIDE_RANGE, RATE_HZ_RANGE
 from code_as_monitor.core.errors import ConfigError
@@ -69,6 +70,11 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     p.add_argument("--allow-unconfined", action="store_true",
                    help="run generated monitor code even where the sandbox cannot install its kernel confinement "
                         "(seccomp, no_new_privs, namespaces); without it such a machine refuses, saying why")
+    p.add_argument("--ablation", choices=tuple(ABLATIONS), default="full",
+                   help="an ablation setting of the monitor (default full): mv-off (front view only), cs-off "
+                        "(elements from ORB keypoints on the object's region, lifted and k-means clustered: our "
+                        "offline analogue of the paper's DINOv2 points, not DINOv2), cp-off (unconnected points, "
+                        "no lines or surfaces), reactive-only, proactive-only (only the constraints marked so)")
     p.add_argument("--quiet", action="store_true", help="print only the outcome")
     p.add_argument("--rerun", nargs="?", const="save", default=None, choices=("save", "spawn", "connect"),
                    help="live 3-D view with rerun-sdk (the [rerun] extra): save run.rrd in the run dir (default), "
@@ -136,6 +142,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
         tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
         max_replans=args.max_replans, deadline_s=args.deadline, allow_unconfined=args.allow_unconfined,
+        ablation=args.ablation,
     )
 
 

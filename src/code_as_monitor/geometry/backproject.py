@@ -122,6 +122,30 @@ def lift_depth(
     return out, valid
 
 
+class LiftedView:
+    """A view's depth made ready to lift pixel sets: ``valid`` (H, W) bool and :meth:`points`.
+
+    The painter takes every element's points from it. Only the pixels asked for are lifted, so a subgoal with
+    a few small parts does not pay for lifting the whole image; the points equal :func:`lift_depth`'s at the
+    same pixels (the same ray times depth plus origin, row-major order).
+    """
+
+    def __init__(self, depth: np.ndarray, camera: CameraModel, max_depth: float = DEFAULT_MAX_DEPTH) -> None:
+        depth = check_depth(depth, camera)
+        if max_depth <= 0:
+            raise GeometryError(f"max_depth must be > 0, got {max_depth!r}")
+        self.depth = depth
+        self.valid = valid_depth(depth, max_depth)
+        self.rays, self.origin = _world_rays(camera)
+
+    def points(self, mask: np.ndarray) -> np.ndarray:
+        """World points (N, 3) float64, metres, of the ``mask`` (H, W) bool pixels with a valid depth reading."""
+        rows, cols = np.nonzero(mask & self.valid)
+        out = self.depth[rows, cols].astype(np.float64)[:, None] * self.rays[rows, cols]
+        out += self.origin
+        return out
+
+
 _RAYS: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
 

@@ -101,6 +101,20 @@ class CoverageError(ProgramError):
 SandboxSource = Sandbox | Callable[[], Sandbox]
 
 
+def part_groups(constraints: list[Constraint]) -> dict[int, list[int]]:
+    """Element id -> the ids of the elements of its object part (by the constraints' ``parts`` and
+    ``element_ids``), for the probes that move a part as one."""
+    owner: dict[int, tuple[str, str]] = {}
+    for c in constraints:
+        if len(c.parts) == len(c.element_ids):
+            for spec, i in zip(c.parts, c.element_ids):
+                owner.setdefault(int(i), (spec.obj, spec.part))
+    out: dict[int, list[int]] = {}
+    for i, o in owner.items():
+        out[i] = sorted(j for j, oj in owner.items() if oj == o)
+    return out
+
+
 def check_path_coverage(
     source: str,
     constraints: list[Constraint],
@@ -155,7 +169,7 @@ def check_path_coverage(
         seen: set[tuple[str, str]] = set()
         overruns = 0
         outcomes = {c.id: (0, 0) for c in constraints}
-        probes = make_probes(elements, history, history_t, t, n_perturbations, seed)
+        probes = make_probes(elements, history, history_t, t, n_perturbations, seed, groups=part_groups(constraints))
         for k, probe in enumerate(probes):
             restarts = sandbox.n_restarts
             verdicts = sandbox.evaluate(probe.elements, probe.history, probe.history_t, t, deadline_s=deadline)

@@ -6,6 +6,9 @@ piled on one another (degenerate lines and surfaces), elements swapped, historie
 static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
 up to the suction tip) and placements (one element put just above another: a block over its target).
+Elements of one object part (``groups``: several point elements when lines and surfaces are handed over as
+unconnected points) move together in the meetings and placements and turn together in turning histories, as the
+part they stand for would.
 Every array is world frame, metres; times are seconds.
 """
 
@@ -104,10 +107,13 @@ decimetres rarely reach. All ordered pairs up to this many, else a seeded sample
 
 
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
-                history_t: np.ndarray | None, t: float, n: int, seed: int = 0) -> list[Probe]:
+                history_t: np.ndarray | None, t: float, n: int, seed: int = 0,
+                groups: dict[int, list[int]] | None = None) -> list[Probe]:
     """The unperturbed state first, then ``n`` perturbations cycling through the families above, then the
     turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`) and the placements
-    (:data:`MAX_PLACEMENTS`)."""
+    (:data:`MAX_PLACEMENTS`). ``groups``: element id -> the ids of its object part (itself included; None or a
+    missing id: the element alone); a meeting or placement moves an element's whole group rigidly, except
+    between two elements of one group."""
     base = normalise_state(elements, history, history_t, t)
     probes = [Probe("the current state (unperturbed)", *base)]
     ids = sorted(base[0])
@@ -174,14 +180,17 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
 
     turn_rng = np.random.default_rng([seed, 1])  # its own stream: the other probes stay as they were
 
-    def turning_history(i: int) -> Probe:
+    def turning_history(i: int, members: list[int] | None = None) -> Probe:
+        g = members or [i]
         axis = turn_rng.normal(size=3)
         angle = turn_rng.uniform(0.2, np.pi / 2) * turn_rng.choice([-1.0, 1.0])
         T = int(turn_rng.choice([2, 3, max(T0, 5)]))
         E, H, Ht = _with_history(base, T, t, None)
-        c = E[i].mean(axis=0)
-        H[i] = np.stack([(E[i] - c) @ _rotation(axis, angle * w).T + c for w in np.linspace(1.0, 0.0, T)])
-        return Probe(f"history of T={T} frames in which element {i} turned {np.degrees(angle):.0f} deg (axis "
+        c = np.concatenate([E[k] for k in g], axis=0).mean(axis=0)
+        for k in g:
+            H[k] = np.stack([(E[k] - c) @ _rotation(axis, angle * w).T + c for w in np.linspace(1.0, 0.0, T)])
+        what = f"element {i}" if len(g) == 1 else f"elements {', '.join(map(str, g))} (one part)"
+        return Probe(f"history of T={T} frames in which {what} turned {np.degrees(angle):.0f} deg (axis "
                      f"{_fmt(axis)}) into its current pose", E, H, Ht)
 
     families: list[Callable[[], Probe]] = [
@@ -197,15 +206,31 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         probes.append(make())
     for i in (i for i in ids if len(base[0][i]) >= 2):  # lines and surfaces: a few turning histories each
         probes += [turning_history(i) for _ in range(TURNS_PER_ELEMENT)]
+    parts = sorted({tuple(g) for g in (groups or {}).values() if len([k for k in g if k in base[0]]) >= 2})
+    for g in parts:  # several elements of one part (its points, with CP off): the part turns as one
+        members = [k for k in g if k in base[0]]
+        probes += [turning_history(members[0], members) for _ in range(TURNS_PER_ELEMENT)]
     meet_rng = np.random.default_rng([seed, 2])  # its own stream too
+
+    def group_pair(a: int, b: int) -> tuple[list[int], list[int]]:
+        ga = [i for i in (groups or {}).get(a, [a]) if i in base[0]] or [a]
+        gb = [i for i in (groups or {}).get(b, [b]) if i in base[0]] or [b]
+        return ([a], [b]) if b in ga else (ga, gb)
+
+    def points_of(E: dict[int, np.ndarray], g: list[int]) -> np.ndarray:
+        return np.concatenate([E[i] for i in g], axis=0)
 
     def meeting(a: int, b: int) -> Probe:
         E0, H0, Ht0 = base
+        ga, gb = group_pair(a, b)
         dz = float(meet_rng.uniform(-0.02, 0.02))
         lift = float(meet_rng.uniform(0.06, 0.15))  # b rose: a carried up, even from where b started
         E = {i: p.copy() for i, p in E0.items()}
-        E[b] = E[b] + np.array([0.0, 0.0, lift])
-        E[a] = E[a] + (E[b].mean(axis=0) - E[a].mean(axis=0) + np.array([0.0, 0.0, dz]))
+        for i in gb:
+            E[i] = E[i] + np.array([0.0, 0.0, lift])
+        o = points_of(E, gb).mean(axis=0) - points_of(E, ga).mean(axis=0) + np.array([0.0, 0.0, dz])
+        for i in ga:
+            E[i] = E[i] + o
         H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
         Ht = np.concatenate([Ht0 - _dt(Ht0), [t]])
         return Probe(f"element {b} raised {lift:.2f} m and element {a} moved since the oldest frame to it "
@@ -220,10 +245,12 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     if len(pairs) > MAX_PLACEMENTS:
         pairs = [pairs[k] for k in sorted(place_rng.choice(len(pairs), MAX_PLACEMENTS, replace=False))]
     for i, j in pairs:
-        top = base[0][j][:, 2].max()
+        gi, gj = group_pair(i, j)
+        Pi, Pj = points_of(base[0], gi), points_of(base[0], gj)
+        top = Pj[:, 2].max()
         lift = place_rng.uniform(0.01, 0.06)
-        o = base[0][j].mean(axis=0) - base[0][i].mean(axis=0)
-        o[2] = top + lift - base[0][i][:, 2].min()
+        o = Pj.mean(axis=0) - Pi.mean(axis=0)
+        o[2] = top + lift - Pi[:, 2].min()
         probes.append(Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
-                            *_map_elements(base, {i: lambda p, o=o: p + o})))
+                            *_map_elements(base, {k: lambda p, o=o: p + o for k in gi})))
     return probes

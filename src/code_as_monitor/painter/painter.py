@@ -17,10 +17,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from code_as_monitor.core.constraints import Subgoal
-from code_as_monitor.core.elements import Element, ElementSpec
-from code_as_monitor.core.errors import CamError, PerceptionError
+from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
+from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.painter.draw import draw_elements
+from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
+from code_as_monitor.painter.sources import ORB_KEYPOINTS, PART_MASKS, check_element_source
 
 if TYPE_CHECKING:
     from code_as_monitor.geometry.support import SupportPlane
@@ -77,12 +79,24 @@ class Painter:
         segmenter: any object with ``segment(view, spec, constraint_text) -> SegmentResult``
             (``code_as_monitor.perception.segmenters``).
         min_pixels: a view contributes to an element only when its mask has at least this many pixels.
+        element_source: ``part-masks`` (the method: constraint-aware instance and part masks, fitted) or
+            ``orb-keypoints`` (the ablation "CS off": ORB keypoints on the object's image region, lifted with depth
+            and clustered with k-means, :mod:`~code_as_monitor.painter.keypoint_elements`; not DINOv2).
+        connect_points: form lines and surfaces (the method). False (the ablation "CP off",
+            :mod:`~code_as_monitor.painter.point_elements`): every element is handed over as unconnected points,
+            each a point element of its own, and the subgoal's constraints are rewritten to use them.
     """
 
-    def __init__(self, segmenter: object, min_pixels: int = 12) -> None:
+    def __init__(self, segmenter: object, min_pixels: int = 12, element_source: str = PART_MASKS,
+                 connect_points: bool = True) -> None:
         self.segmenter = segmenter
         self.min_pixels = min_pixels
+        self.element_source = check_element_source(element_source)
+        if not isinstance(connect_points, bool):
+            raise ConfigError(f"Painter.connect_points must be true or false, got {connect_points!r}")
+        self.connect_points = connect_points
         self._plane: tuple[int, SupportPlane | None] | None = None
+        self._split: dict[int, SplitPoint] = {}
 
     def _support(self, obs: Observation) -> SupportPlane | None:
         """The scene's support plane (the table) from this observation's depth, computed once per observation."""
@@ -95,15 +109,30 @@ class Painter:
     def build_element(
         self, obs: Observation, element_id: int, spec: ElementSpec, constraint_text: str = ""
     ) -> Element | None:
-        """Build one element from all views, or None when no view sees it."""
-        return self.build_elements(obs, {element_id: spec}, {element_id: constraint_text})[element_id]
+        """Build one element from all views, or None when no view sees it. With ``connect_points`` False, a point
+        split from a line or surface at the last :meth:`paint` is that element's point, rebuilt."""
+        split = self._split.get(element_id)
+        if split is not None and not self.connect_points and spec.obj == split.parent.obj \
+                and spec.part == split.parent.part:
+            whole = self.build_elements(obs, {split.parent_id: split.parent}, {split.parent_id: constraint_text})
+            el = whole[split.parent_id]
+            if el is None or len(el.points) <= split.index:
+                return None
+            p = Element.point(element_id, spec.name, el.points[split.index], el.owner)
+            p.cloud, p.object_cloud, p.support = el.cloud, el.object_cloud, el.support
+            return p
+        built = self.build_elements(obs, {element_id: spec}, {element_id: constraint_text})[element_id]
+        if built is not None and not self.connect_points and built.kind is not ElementKind.POINT:
+            built = Element.point(element_id, spec.name, built.points.mean(axis=0), built.owner)
+        return built
 
     def build_elements(
         self, obs: Observation, specs: dict[int, ElementSpec], texts: dict[int, str] | None = None
     ) -> dict[int, Element | None]:
         """Build several elements in one pass over each view: every view is segmented for all of them at once
-        (:meth:`Segmenter.segment_many`) and lifted once (:func:`~code_as_monitor.geometry.lift_depth`); then
-        each element is fitted from its own points. None for an element no view sees (or whose fit fails).
+        (:meth:`Segmenter.segment_many`) and its depth made ready once
+        (:class:`~code_as_monitor.geometry.backproject.LiftedView`: only the masks' pixels are lifted); then each
+        element is fitted from its own points. None for an element no view sees (or whose fit fails).
 
         A view whose depth does not match its camera is skipped (logged); it never stops the others.
         """
@@ -129,12 +158,12 @@ class Painter:
         per_view = self._segment_and_lift(obs, [s for _, s in masked], [texts.get(e, "") for e, _ in masked])
         support = self._support(obs) if per_view else None
         for j, (eid, spec) in enumerate(masked):
-            out[eid] = self._fit(eid, spec, [(v, pm, ok, res[j]) for v, pm, ok, res in per_view], support)
+            out[eid] = self._fit(eid, spec, [(v, lifted, res[j]) for v, lifted, res in per_view], support)
         return out
 
     def _segment_and_lift(self, obs: Observation, specs: list[ElementSpec], texts: list[str]) -> list[tuple]:
-        """Per usable view: (view, points (H, W, 3), valid (H, W), [SegmentResult per spec])."""
-        from code_as_monitor.geometry.backproject import lift_depth
+        """Per usable view: (view, LiftedView, [SegmentResult per spec])."""
+        from code_as_monitor.geometry.backproject import LiftedView
 
         out = []
         for name, view in obs.views.items():
@@ -142,31 +171,35 @@ class Painter:
             if bad:
                 log.warning("view %r skipped: %s", name, bad)
                 continue
-            pm, ok = lift_depth(view.depth, view.camera)
+            lifted = LiftedView(view.depth, view.camera)
             many = getattr(self.segmenter, "segment_many", None)
             if many is not None:
                 res = many(view, specs, texts)
             else:
                 res = [self.segmenter.segment(view, s, t) for s, t in zip(specs, texts)]  # type: ignore[attr-defined]
-            out.append((view, pm, ok, res))
+            out.append((view, lifted, res))
         return out
 
     def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None) -> Element | None:
-        """One element from its per-view (view, points, valid, SegmentResult)."""
+        """One element from its per-view (view, LiftedView, SegmentResult)."""
         from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
         from code_as_monitor.geometry.carve import CarveView
         from code_as_monitor.geometry.part_cloud import fuse_part
 
-        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, _, r in views]
+        if self.element_source == ORB_KEYPOINTS:
+            from code_as_monitor.painter.keypoint_elements import keypoint_element
+
+            return keypoint_element(eid, spec, views, self.min_pixels)
+        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, r in views]
         # A part seen well enough in some view is built from part masks only: falling back to the whole
         # object in a view that sees the part too small would pull the element off the part.
         part_seen = bool(spec.part) and any(pc >= self.min_pixels for pc, _ in counts)
         clouds, carve_views = [], []
-        for (view, pm, ok, res), (pc, ic) in zip(views, counts):
+        for (view, lifted, res), (pc, ic) in zip(views, counts):
             mask = res.part_mask if part_seen or pc >= self.min_pixels else res.instance_mask
             if (pc if mask is res.part_mask else ic) < self.min_pixels:
-                mask = np.zeros(ok.shape, dtype=bool)  # adds no points, but its depth still carves free space
-            clouds.append(pm[mask & ok])
+                mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
+            clouds.append(lifted.points(mask))
             siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
             carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings))
         if not any(len(c) for c in clouds):
@@ -181,7 +214,7 @@ class Painter:
         if not spec.part or not part_seen:
             el.object_cloud = el.cloud
         else:
-            whole = [pm[r.instance_mask & ok] for (_, pm, ok, r), (_, ic) in zip(views, counts)
+            whole = [lifted.points(r.instance_mask) for (_, lifted, r), (_, ic) in zip(views, counts)
                      if ic >= self.min_pixels]
             try:
                 Q, vs, _ = fuse_part(whole, [], name=f"object of {spec.name!r}")
@@ -202,6 +235,9 @@ class Painter:
         elements = [el for el in built.values() if el is not None]
         missing = [specs[i] for i, el in built.items() if el is None]
         elements.sort(key=lambda e: e.id)
+        self._split = {}
+        if not self.connect_points:
+            elements, specs, self._split = split_into_points(elements, specs, subgoal)
         images = self.draw(obs, elements)
         return PaintResult(elements, specs, images, missing, time.perf_counter() - t0)
 

@@ -1,8 +1,9 @@
 """The monitor coder: subgoal, constraints, annotated views and the element legend -> program source.
 
 The request says each thing once (compact JSON: constraints refer to elements by id, the legend is one short
-array per element) and the annotated views go at the cheapest detail that keeps their pixels. A request that
-comes again word for word (a re-planned subgoal) reuses the program already accepted for it, re-checked.
+array per element, named only where its owner does not say what it is) and the annotated views go at the
+cheapest detail that keeps their pixels. A request that comes again word for word (a re-planned subgoal) reuses
+the program already accepted for it, re-checked.
 
 The answer's code fences are stripped, the source must parse, and then the caller's ``check``
 (static validation and path coverage, from the monitor package) must accept it. A rejected program
@@ -20,6 +21,7 @@ from __future__ import annotations
 import ast
 import json
 import logging
+import re
 import time
 from collections.abc import Callable, Iterable
 
@@ -133,17 +135,27 @@ def owner_text(owner: tuple[str, str]) -> str:
     return f"{owner[0]}/{owner[1]}" if owner[1] else owner[0]
 
 
+def legend_row(e: Element) -> list:
+    """``[id, kind, "object/part"]``, with the element's name appended only when it says more than its owner
+    (``"suction cup tip"`` for ``robot/tip``; not ``"green block"`` for ``green_block``)."""
+    row: list = [e.id, e.kind.value, owner_text(e.owner)]
+    said = set(re.split(r"[\W_]+", owner_text(e.owner).lower()))
+    if set(re.split(r"[\W_]+", e.name.lower())) - said - {""}:
+        row.append(e.name)
+    return row
+
+
 def coder_request(subgoal: Subgoal, elements: list[Element], feedback: str | None = None) -> dict:
-    """The coder's request: the subgoal, its action, each constraint with the ids of its parts' elements (the
-    parts themselves are not repeated: the legend says what each element is), the compact legend
-    ``[id, kind, "object/part", name]`` and, after a rejection, why."""
+    """The coder's request: the subgoal, each constraint with its phase, thresholds and the ids of its parts'
+    elements (the parts themselves are not repeated: the legend says what each element is), the compact legend
+    (:func:`legend_row`) and, after a rejection, why. The action (the subgoal's sentence names it) and
+    ``proactive`` (what the agent does with an alarm, not what the program computes) are left out."""
     ids = resolve_element_ids(subgoal, elements)
     request: dict = {
         "subgoal": subgoal.text,
-        "action": subgoal.action.to_dict() if subgoal.action else None,
-        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "proactive": c.proactive,
-                         "thresholds": dict(c.thresholds), "element_ids": ids[c.id]} for c in subgoal.constraints],
-        "elements": [[e.id, e.kind.value, owner_text(e.owner), e.name] for e in elements],
+        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "thresholds": dict(c.thresholds),
+                         "element_ids": ids[c.id]} for c in subgoal.constraints],
+        "elements": [legend_row(e) for e in elements],
     }
     if feedback:
         request["feedback"] = feedback
@@ -203,8 +215,13 @@ class MonitorCoder:
             check: raises ProgramError with the text to send back when it rejects a program.
             max_retries: re-asks after a rejected program.
             feedback: why a previous program of this subgoal was rejected (regeneration).
+        A re-ask carries the original request, the last answer and its error; when the model answers a re-ask
+        with the program it was just told about and that program is rejected with the same error, the next
+        re-ask would be word for word the request just answered, so it is not sent (the model stands by a
+        program that the current state rejects, e.g. a ``during`` check that already fails at the start).
+
         Raises:
-            VLMOutputError: nothing acceptable after ``1 + max_retries`` calls.
+            VLMOutputError: nothing acceptable after ``1 + max_retries`` calls (or fewer, as above).
         """
         key = dump_request(coder_request(subgoal, elements)) if self.reuse and not feedback else None
         kept = self._kept.get(key) if key is not None else None
@@ -218,9 +235,10 @@ class MonitorCoder:
                 self.reused += 1
                 return kept
         messages = self.build_messages(subgoal, elements, annotated_images, feedback)
-        last_error = ""
+        last_error, last_answer, calls = "", None, 0
         request = messages
         for attempt in range(1 + max(0, max_retries)):
+            calls = attempt + 1
             t0 = time.monotonic()
             resp = self.backend.complete(request, purpose=PURPOSE, schema=PROGRAM_SCHEMA)
             self.usage.record(PURPOSE, resp, time.monotonic() - t0)
@@ -233,8 +251,12 @@ class MonitorCoder:
                     raise ProgramError(f"syntax error at line {exc.lineno}: {exc.msg}") from None
                 check(source)
             except ProgramError as exc:
-                last_error = str(exc)
+                repeated = (resp.text, str(exc)) == (last_answer, last_error)
+                last_error, last_answer = str(exc), resp.text
                 log.info("monitor coder: program rejected (attempt %d): %s", attempt + 1, last_error)
+                if repeated:
+                    log.info("monitor coder: the same program and error again; not re-asking the same request")
+                    break
                 repair = render("repair", self.prompt_version, error=last_error, what="program")
                 # the original request, the last answer and its error: not the growing conversation
                 request = [*messages, Message.assistant(resp.text), Message.user(repair)]
@@ -243,6 +265,6 @@ class MonitorCoder:
                 self._kept[key] = source
             return source
         raise VLMOutputError(
-            f"monitor coder: no acceptable program after {1 + max(0, max_retries)} attempt(s); last problem: "
+            f"monitor coder: no acceptable program after {calls} attempt(s); last problem: "
             + last_error.replace("\n", " ")
         )
