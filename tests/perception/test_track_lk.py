@@ -7,7 +7,7 @@ from perception_synth import Box, Scene, camera, observe, two_cameras
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.perception.trackers.base import LKTrackerConfig, TrackerConfig, make_tracker
-from code_as_monitor.perception.trackers.lk_state import chroma_at, chroma_kept, enough_anchors, views_agree
+from code_as_monitor.perception.trackers.lk_state import chroma_at, chroma_kept, views_agree
 
 TOP = np.array([[-0.015, -0.015, 0.06], [0.015, -0.015, 0.06], [0.015, 0.015, 0.06], [-0.015, 0.015, 0.06]])
 
@@ -161,15 +161,14 @@ def test_lk_point_under_a_cover_is_followed_through_its_anchors(anchors):
     """A cap over the block's top centre (a suction cup) hides the point's own pixel in both views.
 
     With one anchor the point is lost (stale, kept in place); with several, the block's surface beside
-    the cap keeps it observed while block and cap move together (``min_anchors=1``: here a single anchor
-    per view survives the cap; the default, 2, does not trust a lone one: the next test).
+    the cap keeps it observed while block and cap move together.
     """
     cams = two_cameras()
     box = _block()
     cap = Box("cup", np.array([0.0, 0.0, 0.2]), np.array([0.026, 0.026, 0.03]), color=(60, 60, 60), texture_seed=9)
     scene = Scene([box, cap])
     els = _elements()[1:2]  # the top-centre point
-    tr = make_tracker(TrackerConfig.from_name("lk", anchors=anchors, min_anchors=1))
+    tr = make_tracker(TrackerConfig.from_name("lk", anchors=anchors))
     tr.reset(observe(scene, cams, 0.0), els)
     for f, z in enumerate(np.linspace(0.17, 0.075, 8), start=1):  # the cup comes down onto the point
         cap.center = np.array([0.0, 0.0, z])
@@ -260,32 +259,3 @@ def test_lk_new_options_validated():
         LKTrackerConfig(max_chroma_change=-0.1)
     with pytest.raises(ConfigError, match="max_view_disagreement"):
         LKTrackerConfig(max_view_disagreement=float("nan"))
-
-
-def test_a_view_needs_min_anchors_surviving_anchors_of_a_point():
-    est = np.full((2, 3, 6, 3), np.nan)  # 2 views, 3 points, 6 anchors each
-    est[0, 0, :1] = 0.0  # view 0: point 0 rests on one anchor, point 1 on three
-    est[0, 1, :3] = 0.0
-    est[1, 2, :2] = 0.0  # view 1: point 2 on two
-    assert enough_anchors(est, 2).tolist() == [[False, True, False], [False, False, True]]
-    assert enough_anchors(est, 1).tolist() == [[True, True, False], [False, False, True]]
-    assert enough_anchors(est[:, :, :1], 2).tolist() == [[True, True, False], [False, False, True]]  # capped at K
-    with pytest.raises(ConfigError, match="min_anchors"):
-        LKTrackerConfig(min_anchors=0)
-
-
-def test_lk_lone_anchor_under_a_cover_is_not_trusted_by_default():
-    """The cap scene above with the default ``min_anchors`` (2): one anchor per view survives the cap, which is
-    not enough; the point is stale (kept at its last value) until the painter re-acquires it."""
-    cams = two_cameras()
-    box = _block()
-    cap = Box("cup", np.array([0.0, 0.0, 0.2]), np.array([0.026, 0.026, 0.03]), color=(60, 60, 60), texture_seed=9)
-    scene = Scene([box, cap])
-    els = _elements()[1:2]
-    tr = make_tracker(TrackerConfig.from_name("lk"))
-    tr.reset(observe(scene, cams, 0.0), els)
-    for f, z in enumerate(np.linspace(0.17, 0.075, 8), start=1):
-        cap.center = np.array([0.0, 0.0, z])
-        res = tr.step(observe(scene, cams, 0.1 * f))
-    assert res.stale[1].all()
-    np.testing.assert_allclose(res.points[1], els[0].points, atol=0.005)

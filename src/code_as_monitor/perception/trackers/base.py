@@ -101,8 +101,6 @@ class LKTrackerConfig(TrackerConfig):
         chroma_min_sum: pixels darker than this (R + G + B, 0-765) have no reliable colour: the test is skipped.
         max_view_disagreement: metres; a point whose estimates from two views lie further apart than this is not
             observed this frame (stale): at least one view's anchors slid, and which is not known. 0 disables it.
-        min_anchors: a view's estimate of a point needs at least this many surviving anchors (capped at
-            ``anchors``); a lone anchor left after its neighbours were lost is the one most likely to have slid.
     """
 
     window: int = 21
@@ -131,7 +129,6 @@ class LKTrackerConfig(TrackerConfig):
     max_chroma_change: float = 0.2
     chroma_min_sum: float = 60.0
     max_view_disagreement: float = 0.01
-    min_anchors: int = 2
 
     def __post_init__(self) -> None:
         if self.anchors < 1:
@@ -142,8 +139,6 @@ class LKTrackerConfig(TrackerConfig):
             raise ConfigError(f"lk.window must be an odd number >= 5, got {self.window!r}")
         if self.fusion not in ("mean", "median"):
             raise ConfigError(f"lk.fusion must be 'mean' or 'median', got {self.fusion!r}")
-        if self.min_anchors < 1:
-            raise ConfigError(f"lk.min_anchors must be >= 1, got {self.min_anchors!r}")
         if self.rigid_min_points < 3:
             raise ConfigError(f"lk.rigid_min_points must be >= 3, got {self.rigid_min_points!r}")
         check_positive("lk", "levels", self.levels, allow_zero=True)

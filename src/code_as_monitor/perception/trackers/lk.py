@@ -63,7 +63,6 @@ from code_as_monitor.perception.trackers.lk_state import (
     cam_z,
     chroma_at,
     chroma_kept,
-    enough_anchors,
     gray_of,
     inside,
     kabsch,
@@ -148,8 +147,7 @@ class LKTracker(Tracker):
             if st.active.any() and st.key is not None:
                 self._track(view, st, est[k], ee_delta)
         per_view = nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
-        observed = enough_anchors(est.reshape(len(obs.views), m, K, 3), c.min_anchors)  # (V, M)
-        per_view[~observed] = np.nan
+        observed = np.isfinite(per_view[:, :, 0])  # (V, M)
         ok = observed.any(axis=0) & views_agree(per_view, observed, c.max_view_disagreement)
         if c.fusion == "median":
             fused = np.full((m, 3), np.nan)

@@ -110,19 +110,6 @@ def views_agree(per_view: np.ndarray, observed: np.ndarray, tol: float) -> np.nd
     return ~np.any(both & (d > tol), axis=(0, 1))
 
 
-def enough_anchors(est: np.ndarray, min_anchors: int) -> np.ndarray:
-    """(V, M) bool: the view has at least ``min_anchors`` surviving anchors (finite estimates) of the point.
-
-    Args:
-        est: (V, M, K, 3) each view's per-anchor estimates of each point, world metres (NaN: lost).
-        min_anchors: fewest anchors a view's estimate rests on, capped at K (with one anchor per point, one).
-    A lone anchor is the one most likely to have slid (its neighbours were lost to the same occluder); with
-    fewer, the view has no say on the point this frame.
-    """
-    k = est.shape[2]
-    return np.isfinite(est[..., 0]).sum(axis=2) >= max(1, min(int(min_anchors), k))
-
-
 def cam_z(view: View, pts: np.ndarray) -> np.ndarray:
     """(N,) depth along the view's optical axis of world points (N, 3), metres."""
     T = view.camera.T_world_cam
