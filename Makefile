@@ -4,6 +4,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 EXTRAS ?= dev,sim,ray,ros
+TEST_STAMP := $(VENV)/.installed-test
+TEST_EXTRAS ?= rerun
 
 .PHONY: install demo test test-slow lint bench clean
 
@@ -15,14 +17,20 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
+# The tests also cover the optional live view (--rerun save/connect against rerun's own server), so
+# `make test` adds the extras that only the tests need; `make demo` stays without them.
+$(TEST_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[$(EXTRAS),$(TEST_EXTRAS)]"
+	touch $(TEST_STAMP)
+
 demo: install
 	$(BIN)/cam demo
 
-test: install
+test: $(TEST_STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/python -m pytest -q
 
-test-slow: install
+test-slow: $(TEST_STAMP)
 	$(BIN)/python -m pytest -q -m slow
 
 lint: install

@@ -92,3 +92,58 @@ def test_displacement() -> None:
     assert h.displacement(H) == pytest.approx(0.5)
     assert h.displacement(H[:1]) == 0.0
     assert h.displacement(np.zeros((4, 3))) == 0.0  # not a history
+
+
+# --- the fast paths against the plain NumPy definitions -------------------------------------------
+def _ref_normal(S: np.ndarray) -> np.ndarray:
+    _, _, vt = np.linalg.svd(S - S.mean(axis=0))
+    n = vt[-1]
+    return -n if n[2] < 0 else n
+
+
+def _ref_in_polygon(p: np.ndarray, poly: np.ndarray) -> bool:
+    """Ray casting with NumPy corners sorted by np.argsort of their angle (the definition the helper keeps)."""
+    P = poly[:, :2]
+    c = P.mean(axis=0)
+    P = P[np.argsort(np.arctan2(P[:, 1] - c[1], P[:, 0] - c[0]))]
+    x, y = p.reshape(-1, 3).mean(axis=0)[:2]
+    inside, j = False, len(P) - 1
+    for i in range(len(P)):
+        (xi, yi), (xj, yj) = P[i], P[j]
+        if (yi > y) != (yj > y) and x < xi + (y - yi) * (xj - xi) / (yj - yi):
+            inside = not inside
+        j = i
+    return inside
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_fast_paths_agree_with_the_numpy_definitions(seed: int) -> None:
+    """The helpers avoid NumPy's Python wrappers (they run every frame in the sandbox): same values."""
+    rng = np.random.default_rng(seed)
+    for _ in range(200):
+        k = int(rng.integers(1, 7))
+        A = rng.normal(0.0, 0.1, (k, 3))
+        B = rng.normal(0.0, 0.1, (int(rng.integers(1, 5)), 3))
+        assert h.distance(A, B) == pytest.approx(float(np.linalg.norm(A.mean(0) - B.mean(0))), rel=1e-12)
+        np.testing.assert_allclose(h.centroid(A), A.mean(axis=0), rtol=0, atol=1e-15)
+        u, v = rng.normal(size=3), rng.normal(size=3)
+        ref = math.acos(np.clip(np.dot(u, v) / (np.linalg.norm(u) * np.linalg.norm(v)), -1, 1))
+        assert h.angle_between(u, v) == pytest.approx(ref, abs=1e-12)
+        H = rng.normal(0.0, 0.1, (int(rng.integers(2, 9)), k, 3))
+        assert h.displacement(H) == pytest.approx(float(np.linalg.norm(H[-1].mean(0) - H[0].mean(0))), rel=1e-12)
+        if k >= 3:
+            n = h.normal(A)
+            np.testing.assert_allclose(n, _ref_normal(A), atol=1e-9)  # a plane's normal, oriented z >= 0
+            assert n[2] >= 0 and np.linalg.norm(n) == pytest.approx(1.0)
+            q = rng.normal(0.0, 0.1, (1, 3))
+            assert h.point_in_polygon(q, A) == _ref_in_polygon(q, A)
+            pts = rng.normal(0.0, 0.1, (6, 3))
+            assert h.count_in_polygon(pts, A) == sum(_ref_in_polygon(x, A) for x in pts)
+            ref_h = float(np.dot(q.mean(0) - A.mean(0), _ref_normal(A)))
+            assert h.signed_height(q, A) == pytest.approx(ref_h, abs=1e-12)
+
+
+def test_normal_of_three_collinear_points_falls_back_to_the_fit() -> None:
+    S = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    n = h.normal(S)
+    assert np.linalg.norm(n) == pytest.approx(1.0) and abs(n[0]) < 1e-9  # some normal of the line, unit length

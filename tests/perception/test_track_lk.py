@@ -7,6 +7,7 @@ from perception_synth import Box, Scene, camera, observe, two_cameras
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.perception.trackers.base import LKTrackerConfig, TrackerConfig, make_tracker
+from code_as_monitor.perception.trackers.lk_state import chroma_at, chroma_kept, views_agree
 
 TOP = np.array([[-0.015, -0.015, 0.06], [0.015, -0.015, 0.06], [0.015, 0.015, 0.06], [-0.015, 0.015, 0.06]])
 
@@ -206,3 +207,55 @@ def test_lk_end_effector_motion_prior_follows_a_fast_held_block(prior):
         assert max(errs) < 0.01, errs
     else:
         assert max(errs) > 0.01, errs  # without the prior the track is lost or left behind
+
+
+def test_chromaticity_ignores_shading_and_skips_dark_pixels():
+    rgb = np.zeros((10, 10, 3), np.uint8)
+    rgb[:, :5] = (40, 160, 40)  # a green face ...
+    rgb[:, 5:] = (20, 80, 20)  # ... and the same green in shade
+    rgb[0:3, 0:3] = (5, 20, 5)  # too dark for a colour
+    got = chroma_at(rgb, np.array([[2.0, 6.0], [7.0, 6.0], [1.0, 1.0], [np.nan, 3.0]]), min_sum=60.0)
+    np.testing.assert_allclose(got[0], [40 / 240, 160 / 240])
+    np.testing.assert_allclose(got[1], got[0])  # shading does not change chromaticity
+    assert np.isnan(got[2:]).all()  # dark, or not a pixel: unknown
+    red = chroma_at(np.full((3, 3, 3), (160, 40, 40), np.uint8), np.array([[1.0, 1.0]]), 60.0)
+    seeded = np.vstack([got[0], got[0], got[0]])
+    now = np.vstack([got[1], red[0], [np.nan, np.nan]])
+    assert chroma_kept(seeded, now, 0.2).tolist() == [True, False, True]  # unknown is kept
+    assert chroma_kept(seeded, now, 0.0).all()  # 0: the test is off
+
+
+def test_views_agree_flags_points_two_views_place_apart():
+    per_view = np.array([
+        [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.2, 0.0, 0.0], [np.nan] * 3],
+        [[0.004, 0.0, 0.0], [0.13, 0.0, 0.0], [np.nan] * 3, [np.nan] * 3],
+    ])
+    observed = np.isfinite(per_view[:, :, 0])
+    assert views_agree(per_view, observed, 0.01).tolist() == [True, False, True, True]
+    assert views_agree(per_view, observed, 0.0).all()  # 0: the test is off
+    assert views_agree(per_view[:1], observed[:1], 0.01).all()  # one view: nothing to compare
+
+
+@pytest.mark.parametrize("max_change", [0.0, 0.2])
+def test_lk_anchor_whose_colour_changes_is_lost(max_change):
+    """The block stays where it is but its surface turns from red to green (what an anchor that slid onto the
+    green block above a red one sees): with the colour test the point goes stale, without it it stays fresh."""
+    cams = two_cameras()
+    box = _block()
+    scene = Scene([box])
+    els = _elements()[1:2]
+    tr = make_tracker(TrackerConfig.from_name("lk", max_chroma_change=max_change, max_view_disagreement=0.0))
+    tr.reset(observe(scene, cams, 0.0), els)
+    res = tr.step(observe(scene, cams, 0.1))
+    assert not res.stale[1].any()
+    box.color = (40, 120, 40)  # the grey level of the red (200, 40, 40): LK still matches it
+    res = tr.step(observe(scene, cams, 0.2))
+    assert res.stale[1].all() == (max_change > 0)
+    np.testing.assert_allclose(res.points[1], els[0].points, atol=0.005)
+
+
+def test_lk_new_options_validated():
+    with pytest.raises(ConfigError, match="max_chroma_change"):
+        LKTrackerConfig(max_chroma_change=-0.1)
+    with pytest.raises(ConfigError, match="max_view_disagreement"):
+        LKTrackerConfig(max_view_disagreement=float("nan"))

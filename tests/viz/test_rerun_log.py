@@ -44,3 +44,67 @@ def test_rerun_without_the_extra_is_one_line_exit_2(tmp_path: Path, capsys, monk
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'rerun' extra" in err[0]
     assert not runs.exists()
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_listening(port: int, proc, timeout_s: float = 30.0) -> None:
+    import socket
+    import time
+
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        assert proc.poll() is None, "the rerun server exited before it listened"
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.2)
+    raise AssertionError(f"the rerun server did not listen on port {port} within {timeout_s} s")
+
+
+def test_connect_streams_the_run_to_a_running_rerun_server(tmp_path: Path) -> None:
+    """``--rerun connect``: rerun's own server (the ``rerun`` binary of the extra, no viewer window, saving
+    what it receives) gets the same parts a saved run.rrd has."""
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    pytest.importorskip("rerun")
+    pytest.importorskip("pybullet")
+    exe = shutil.which("rerun", path=str(Path(sys.executable).parent))
+    if exe is None:
+        pytest.skip("the rerun extra's `rerun` binary is not next to this interpreter")
+    port = _free_port()
+    got = tmp_path / "received.rrd"
+    env = {**os.environ, "TELEMETRY_ENABLED": "false", "HOME": str(tmp_path)}
+    server = subprocess.Popen([exe, "--port", str(port), "--save", str(got)], env=env,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        _wait_listening(port, server)
+        runs = tmp_path / "runs"
+        argv = ["run", "stack-in-order", "--seed", "1", "--p", "0.3", "--tracker", "sim", "--size", "160x120",
+                "--no-video", "--quiet", "--rerun", "connect", "--rerun-url",
+                f"rerun+http://127.0.0.1:{port}/proxy", "--runs", str(runs)]
+        assert main(argv) == 0
+        (run_dir,) = runs.iterdir()
+        assert not (run_dir / "run.rrd").exists(), "connect streams; it does not save"
+    finally:
+        server.send_signal(signal.SIGINT)
+        try:
+            server.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            server.wait()
+    ents = _entities(got)
+    for name in ("/views/front/image", "/world/end_effector", "/events/alarms"):
+        assert ents[name] > 0, (name, sorted(ents))
+    assert ents["/checks/attached_blue_block/margin"] > 5
+    assert ents["/checks/attached_blue_block/alarm"] == 1

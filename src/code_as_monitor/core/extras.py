@@ -9,7 +9,7 @@ from code_as_monitor.core.errors import MissingExtraError
 
 INSTALL = {
     "ros": "pip install -e '.[ros]'  (rosbags: ROS 2 bags without a ROS install; part of `make install`)",
-    "rerun": "pip install -e '.[rerun]'  (rerun-sdk, about 170 MB; or `make install EXTRAS=dev,sim,ray,ros,rerun`)",
+    "rerun": "pip install -e '.[rerun]'  (rerun-sdk, ~500 MB; or `make install EXTRAS=dev,sim,ray,ros,rerun`)",
     "ray": "pip install -e '.[ray]'",
 }
 

@@ -22,7 +22,13 @@ def _pt(p: np.ndarray) -> np.ndarray:
     a = np.asarray(p, dtype=np.float64)
     if a.ndim == 1:
         return a[:3]
-    return a.reshape(-1, 3).mean(axis=0)
+    a = a.reshape(-1, 3)
+    return np.add.reduce(a, 0) / a.shape[0]  # what ``mean(axis=0)`` computes, without its Python wrapper
+
+
+def _norm(v: np.ndarray) -> float:
+    """Euclidean norm of a vector (3,): what ``np.linalg.norm`` computes for it, at a third of the cost."""
+    return math.sqrt(float(v.dot(v)))
 
 
 def centroid(P: np.ndarray) -> np.ndarray:
@@ -32,7 +38,7 @@ def centroid(P: np.ndarray) -> np.ndarray:
 
 def distance(a: np.ndarray, b: np.ndarray) -> float:
     """Euclidean distance in metres between two points or element centroids."""
-    return float(np.linalg.norm(_pt(a) - _pt(b)))
+    return _norm(_pt(a) - _pt(b))
 
 
 def horizontal_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -47,19 +53,28 @@ def direction(L: np.ndarray) -> np.ndarray:
     if L.shape[0] < 2:
         return _Z.copy()
     d = L[-1] - L[0]
-    n = np.linalg.norm(d)
+    n = _norm(d)
     return d / n if n > 1e-12 else _Z.copy()
 
 
 def normal(S: np.ndarray) -> np.ndarray:
     """Unit normal (3,) of a surface element ``S`` (k >= 3, 3), oriented to have z >= 0.
 
-    Fitted by SVD through all the points (the plane of least squares).
+    Fitted by SVD through all the points (the plane of least squares); for exactly three points that
+    are not collinear, the same plane's normal from the cross product of two edges (no SVD needed).
     """
     S = np.asarray(S, dtype=np.float64).reshape(-1, 3)
     if S.shape[0] < 3:
         return _Z.copy()
-    _, _, vt = np.linalg.svd(S - S.mean(axis=0))
+    if S.shape[0] == 3:
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = S.tolist()
+        ux, uy, uz, vx, vy, vz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        length = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if length > 1e-12 * max(1.0, ux * ux + uy * uy + uz * uz, vx * vx + vy * vy + vz * vz):
+            s = -1.0 / length if nz < 0 else 1.0 / length
+            return np.array([nx * s, ny * s, nz * s])
+    _, _, vt = np.linalg.svd(S - _pt(S), full_matrices=False)
     n = vt[-1]
     return -n if n[2] < 0 else n
 
@@ -68,10 +83,10 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> float:
     """Angle in radians, in [0, pi], between two direction vectors (3,)."""
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
-    nu, nv = np.linalg.norm(u), np.linalg.norm(v)
+    nu, nv = _norm(u), _norm(v)
     if nu < 1e-12 or nv < 1e-12:
         return 0.0
-    c = float(np.dot(u, v) / (nu * nv))
+    c = float(u.dot(v)) / (nu * nv)
     return math.acos(max(-1.0, min(1.0, c)))
 
 
@@ -81,41 +96,58 @@ def angle_to_vertical(u: np.ndarray) -> float:
     return min(a, math.pi - a)
 
 
+def _polygon_xy(poly: np.ndarray) -> list[tuple[float, float]] | None:
+    """The xy corners of ``poly`` (k >= 3, 3) in angular order around their centroid; None for k < 3."""
+    P = np.asarray(poly, dtype=np.float64).reshape(-1, 3)[:, :2].tolist()
+    k = len(P)
+    if k < 3:
+        return None
+    cx = sum(q[0] for q in P) / k
+    cy = sum(q[1] for q in P) / k
+    P.sort(key=lambda q: math.atan2(q[1] - cy, q[0] - cx))
+    return P
+
+
+def _inside(x: float, y: float, P: list[tuple[float, float]]) -> bool:
+    """Even-odd rule: does the horizontal ray from (x, y) cross the closed polygon ``P`` an odd number of times."""
+    inside = False
+    xj, yj = P[-1]
+    for xi, yi in P:
+        if (yi > y) != (yj > y) and x < xi + (y - yi) * (xj - xi) / (yj - yi):
+            inside = not inside
+        xj, yj = xi, yi
+    return inside
+
+
 def point_in_polygon(p: np.ndarray, poly: np.ndarray) -> bool:
     """True when point ``p`` lies inside polygon ``poly`` (k >= 3, 3), both projected on the xy plane.
 
-    The polygon's points are taken in the order given, or in angular order around their centroid
-    when that order self-intersects (so a surface element's 4 corner points work either way).
+    The polygon's corners are taken in angular order around their centroid, so a surface element's
+    4 corner points work in any order.
     """
-    P = np.asarray(poly, dtype=np.float64).reshape(-1, 3)[:, :2]
-    if P.shape[0] < 3:
+    P = _polygon_xy(poly)
+    if P is None:
         return False
-    c = P.mean(axis=0)
-    order = np.argsort(np.arctan2(P[:, 1] - c[1], P[:, 0] - c[0]))
-    P = P[order]
-    x, y = _pt(p)[:2]
-    inside = False
-    j = len(P) - 1
-    for i in range(len(P)):
-        xi, yi = P[i]
-        xj, yj = P[j]
-        if (yi > y) != (yj > y):
-            x_cross = xi + (y - yi) * (xj - xi) / (yj - yi)
-            if x < x_cross:
-                inside = not inside
-        j = i
-    return inside
+    x, y = _pt(p)[:2].tolist()
+    return _inside(x, y, P)
 
 
 def count_in_polygon(points: list[np.ndarray] | np.ndarray, poly: np.ndarray) -> int:
     """How many of ``points`` (a list of points/elements, or an (N, 3) array) lie inside ``poly`` (xy)."""
-    return int(sum(point_in_polygon(q, poly) for q in points))
+    P = _polygon_xy(poly)
+    if P is None:
+        return 0
+    n = 0
+    for q in points:
+        x, y = _pt(q)[:2].tolist()
+        n += _inside(x, y, P)
+    return n
 
 
 def signed_height(p: np.ndarray, S: np.ndarray) -> float:
     """Signed distance (metres) of point ``p`` from the plane of surface ``S``; positive on the +normal side."""
     S = np.asarray(S, dtype=np.float64).reshape(-1, 3)
-    return float(np.dot(_pt(p) - S.mean(axis=0), normal(S)))
+    return float((_pt(p) - _pt(S)).dot(normal(S)))
 
 
 def point_above_surface(p: np.ndarray, S: np.ndarray, margin: float = 0.0) -> bool:
@@ -128,7 +160,7 @@ def displacement(Hi: np.ndarray) -> float:
     Hi = np.asarray(Hi, dtype=np.float64)
     if Hi.ndim != 3 or Hi.shape[0] < 2:
         return 0.0
-    return float(np.linalg.norm(Hi[-1].mean(axis=0) - Hi[0].mean(axis=0)))
+    return _norm(_pt(Hi[-1]) - _pt(Hi[0]))
 
 
 MONITOR_HELPERS: dict[str, Callable[..., object]] = {

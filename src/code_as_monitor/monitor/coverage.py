@@ -32,6 +32,11 @@ from code_as_monitor.monitor.validate import validate_program
 
 MAX_LISTED = 12
 MAX_OVERRUNS = 2
+MIN_PROBE_DEADLINE_S = 0.5
+"""Least time one coverage input may take. Coverage is not real-time, and a program rejected because a busy
+machine delayed one of its inputs is a false rejection: at 100 ms that happened under load average 17 (a
+drawer program, three checks, in the test suite). A program that never answers still costs at most
+``MAX_OVERRUNS`` of these."""
 
 
 @dataclass
@@ -142,8 +147,9 @@ def check_path_coverage(
             which is started and closed here.
         n_perturbations: perturbed inputs besides the current state.
         seed: seed of the perturbations (deterministic).
-        deadline_s: per-input deadline; default: 5x the sandbox deadline, at least 100 ms (coverage
-            runs once per subgoal, not in the control loop, and instrumentation costs a little).
+        deadline_s: per-input deadline; default: 5x the sandbox deadline, at least
+            :data:`MIN_PROBE_DEADLINE_S` (coverage runs once per subgoal, not in the control loop, and
+            instrumentation costs a little).
         require_full_coverage: True also rejects a program for unreached branches alone.
     Returns:
         The report, when nothing is wrong.
@@ -164,7 +170,7 @@ def check_path_coverage(
         if sandbox.n_branches != len(branches):
             raise ProgramError(f"branch tables differ between control process ({len(branches)}) and worker "
                                f"({sandbox.n_branches})")
-        deadline = deadline_s if deadline_s is not None else max(5 * sandbox.deadline_s, 0.1)
+        deadline = deadline_s if deadline_s is not None else max(5 * sandbox.deadline_s, MIN_PROBE_DEADLINE_S)
         report = CoverageReport(branches=branches)
         seen: set[tuple[str, str]] = set()
         overruns = 0

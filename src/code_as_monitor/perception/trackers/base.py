@@ -94,6 +94,13 @@ class LKTrackerConfig(TrackerConfig):
             two initial guesses, where they were and where the tip's motion since the last frame would
             have carried them, and the one that passes the forward-backward check with the smaller error
             is kept: a held object moves with the gripper, a dropped one does not. 0 disables it.
+        max_chroma_change: an anchor whose colour's chromaticity ((R, G) / (R + G + B) of its 3x3 pixels) has moved
+            further than this from its value when it was seeded is lost in that view: it slid onto another surface
+            whose grey level is alike (the block below in a tower, an object passing in front). Chromaticity does
+            not change with shading. 0 disables the test.
+        chroma_min_sum: pixels darker than this (R + G + B, 0-765) have no reliable colour: the test is skipped.
+        max_view_disagreement: metres; a point whose estimates from two views lie further apart than this is not
+            observed this frame (stale): at least one view's anchors slid, and which is not known. 0 disables it.
     """
 
     window: int = 21
@@ -119,6 +126,9 @@ class LKTrackerConfig(TrackerConfig):
     anchor_search_px: int = 14
     reseed_below: float = 0.5
     ee_prior_radius: float = 0.08
+    max_chroma_change: float = 0.2
+    chroma_min_sum: float = 60.0
+    max_view_disagreement: float = 0.01
 
     def __post_init__(self) -> None:
         if self.anchors < 1:
@@ -135,7 +145,8 @@ class LKTrackerConfig(TrackerConfig):
         for f in ("iterations", "epsilon", "fb_threshold_px", "occlusion_tol", "max_depth_jump",
                   "max_depth", "rigid_max_residual", "reacquire_after"):
             check_positive("lk", f, getattr(self, f))
-        for f in ("border_px", "inside_tol", "seed_search_px", "ee_prior_radius"):
+        for f in ("border_px", "inside_tol", "seed_search_px", "ee_prior_radius", "max_chroma_change",
+                  "chroma_min_sum", "max_view_disagreement"):
             check_positive("lk", f, getattr(self, f), allow_zero=True)
         check_positive("lk", "min_eig", self.min_eig, allow_zero=True)
         check_positive("lk", "rekey_px", self.rekey_px, allow_zero=True)

@@ -61,6 +61,8 @@ from code_as_monitor.perception.trackers.base import (
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
     cam_z,
+    chroma_at,
+    chroma_kept,
     gray_of,
     inside,
     kabsch,
@@ -68,6 +70,7 @@ from code_as_monitor.perception.trackers.lk_state import (
     nanmedian_axis,
     slots,
     tip_of,
+    views_agree,
 )
 
 _RIGID_KINDS = (ElementKind.LINE, ElementKind.SURFACE)
@@ -145,7 +148,7 @@ class LKTracker(Tracker):
                 self._track(view, st, est[k], ee_delta)
         per_view = nanmedian_axis(est.reshape(len(obs.views), m, K, 3), axis=2)  # (V, M, 3)
         observed = np.isfinite(per_view[:, :, 0])  # (V, M)
-        ok = observed.any(axis=0)
+        ok = observed.any(axis=0) & views_agree(per_view, observed, c.max_view_disagreement)
         if c.fusion == "median":
             fused = np.full((m, 3), np.nan)
             fused[ok] = np.nanmedian(per_view[:, ok], axis=0)
@@ -186,6 +189,7 @@ class LKTracker(Tracker):
         idx = np.flatnonzero(st.active)
         p0 = st.key_uv[idx].reshape(-1, 1, 2)
         guesses = [st.uv[idx].astype(np.float32)]
+        near = np.zeros(len(idx), dtype=bool)
         if ee_delta is not None and c.ee_prior_radius > 0 and np.linalg.norm(ee_delta) > 1e-3 and self._tip is not None:
             xyz = st.xyz[idx]
             near = np.isfinite(xyz[:, 0]) & (np.linalg.norm(xyz - (self._tip - ee_delta), axis=1) <= c.ee_prior_radius)
@@ -212,12 +216,13 @@ class LKTracker(Tracker):
                 best_p1[better], best_fb[better] = p1[better], fb[better]
         p1, fb = best_p1, best_fb
         good = (fb <= c.fb_threshold_px) & inside(view, c.border_px, p1)
+        good &= chroma_kept(st.chroma[idx], chroma_at(view.rgb, p1, c.chroma_min_sum), c.max_chroma_change)
         lifted, valid = self._lift(p1, view.depth, view.camera, c.max_depth)
         good &= valid
         z = np.where(valid, cam_z(view, np.nan_to_num(lifted)), np.nan)
         prev_z = st.z[idx]
-        if len(guesses) > 1:  # a held object's depth follows the tip's motion along the optical axis
-            prev_z = prev_z + np.where(np.isfinite(st.xyz[idx, 0]), ee_delta @ view.camera.T_world_cam[:3, 2], 0.0)
+        if len(guesses) > 1:  # a held object's depth follows the tip's motion along the optical axis (near it only)
+            prev_z = prev_z + np.where(near, ee_delta @ view.camera.T_world_cam[:3, 2], 0.0)
         with np.errstate(invalid="ignore"):
             good &= (np.abs(z - prev_z) <= c.max_depth_jump) | (np.abs(z - st.z[idx]) <= c.max_depth_jump)
         gi = idx[good]
@@ -266,6 +271,7 @@ class LKTracker(Tracker):
         st.offset[sel] = P[rows] - anchor_lift
         st.z[sel] = cam_z(view, anchor_lift)
         st.xyz[sel] = anchor_lift
+        st.chroma[sel] = chroma_at(view.rgb, st.uv[sel], c.chroma_min_sum)
         st.active[sel] = True
         seeded = bool(sel.size)
         if K > 1:
@@ -295,6 +301,7 @@ class LKTracker(Tracker):
             st.offset[sl] = P[row] - lifted[row, take]
             st.z[sl] = cam_z(view, lifted[row, take])
             st.xyz[sl] = lifted[row, take]
+            st.chroma[sl] = chroma_at(view.rgb, st.uv[sl], c.chroma_min_sum)
             st.active[sl] = True
             any_seeded = True
         return any_seeded
@@ -354,6 +361,7 @@ class LKTracker(Tracker):
                         osl = slots(o, K)
                         st.uv[nsl], st.active[nsl], st.key_uv[nsl] = ost.uv[osl], ost.active[osl], ost.key_uv[osl]
                         st.offset[nsl], st.z[nsl], st.xyz[nsl] = ost.offset[osl], ost.z[osl], ost.xyz[osl]
+                        st.chroma[nsl] = ost.chroma[osl]
             for eid, osl in old_slices.items():
                 if eid != new.id:
                     self.P[self._slices[eid]] = old_P[osl]

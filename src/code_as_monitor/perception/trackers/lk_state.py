@@ -41,6 +41,7 @@ class ViewState:
         self.offset = np.zeros((m, 3))  # world-frame offset point - lift(anchor)
         self.xyz = np.full((m, 3), np.nan)  # lift(anchor) at its last update, world metres
         self.z = np.zeros(m)  # depth reading at the anchor last frame, metres
+        self.chroma = np.full((m, 2), np.nan)  # (r, g) chromaticity at the anchor when it was seeded; NaN = unknown
 
     def make_key(self) -> None:
         """Make the current frame the key frame the templates come from."""
@@ -54,6 +55,59 @@ def gray_of(view: View) -> np.ndarray:
     import cv2
 
     return cv2.cvtColor(view.rgb, cv2.COLOR_RGB2GRAY)
+
+
+def chroma_at(rgb: np.ndarray, uv: np.ndarray, min_sum: float) -> np.ndarray:
+    """(N, 2) chromaticity (r, g) = (R, G) / (R + G + B) of the 3x3 mean colour around pixels ``uv`` (N, 2).
+
+    Chromaticity does not change with a surface's shading, so it tells one coloured object from another where
+    their grey levels (what LK matches) are alike. NaN where the pixel is outside the image or darker than
+    ``min_sum`` (R + G + B, 0-765: too dark for a colour).
+    """
+    h, w = rgb.shape[:2]
+    out = np.full((len(uv), 2), np.nan)
+    if not len(uv):
+        return out
+    ok = np.isfinite(uv).all(axis=1)
+    ui = np.clip(np.rint(np.nan_to_num(uv[:, 0])).astype(int), 1, w - 2)
+    vi = np.clip(np.rint(np.nan_to_num(uv[:, 1])).astype(int), 1, h - 2)
+    acc = np.zeros((len(uv), 3))
+    for dv in (-1, 0, 1):
+        for du in (-1, 0, 1):
+            acc += rgb[vi + dv, ui + du].astype(np.float64)
+    acc /= 9.0
+    s = acc.sum(axis=1)
+    ok &= s >= max(min_sum, 1e-6)
+    out[ok] = acc[ok, :2] / s[ok, None]
+    return out
+
+
+def chroma_kept(seeded: np.ndarray, now: np.ndarray, max_change: float) -> np.ndarray:
+    """(N,) bool: the chromaticity ``now`` (N, 2) is within ``max_change`` of ``seeded`` (N, 2); True where
+    either is unknown (NaN: too dark to tell) or the test is off (``max_change`` 0)."""
+    if max_change <= 0:
+        return np.ones(len(now), dtype=bool)
+    d = np.linalg.norm(now - seeded, axis=1)
+    return ~(d > max_change)  # NaN compares False: unknown is kept
+
+
+def views_agree(per_view: np.ndarray, observed: np.ndarray, tol: float) -> np.ndarray:
+    """(M,) bool: the views that observed each point put it within ``tol`` metres of one another.
+
+    Args:
+        per_view: (V, M, 3) each view's estimate of each point, world metres (NaN where not observed).
+        observed: (V, M) bool, finite estimates.
+        tol: metres; 0 disables the test (all True).
+    Two views that disagree by more than the trackers' own error cannot both be right, and which one slid (onto
+    an occluder's edge, another object) is not known: the point is not observed this frame.
+    """
+    m = per_view.shape[1]
+    if tol <= 0 or per_view.shape[0] < 2:
+        return np.ones(m, dtype=bool)
+    P = np.where(observed[:, :, None], per_view, 0.0)
+    d = np.linalg.norm(P[:, None] - P[None, :], axis=-1)  # (V, V, M)
+    both = observed[:, None] & observed[None, :]
+    return ~np.any(both & (d > tol), axis=(0, 1))
 
 
 def cam_z(view: View, pts: np.ndarray) -> np.ndarray:
