@@ -23,6 +23,8 @@ def _pt(p: np.ndarray) -> np.ndarray:
     if a.ndim == 1:
         return a[:3]
     a = a.reshape(-1, 3)
+    if a.shape[0] == 1:  # a point element: its one point (a copy, as the mean would be)
+        return a[0].copy()
     return np.add.reduce(a, 0) / a.shape[0]  # what ``mean(axis=0)`` computes, without its Python wrapper
 
 

@@ -116,6 +116,10 @@ def _fault(reason: str) -> Result:
 
 def normalise(result: object) -> Result:
     """Turn whatever a check returned into a :data:`Result`; anything malformed is a fault."""
+    if type(result) is tuple and len(result) == 3:  # the common shape, with exact built-in types: no checks left
+        ok, reason, m = result
+        if type(ok) is bool and type(reason) is str and type(m) is float and math.isfinite(m):
+            return ok, reason[:protocol.REASON_MAX], m, False, True
     if not isinstance(result, tuple) or len(result) not in (2, 3):
         n = f" of length {len(result)}" if isinstance(result, tuple) else ""
         return _fault(f"check returned {_type_name(result)}{n}, expected (ok, reason) or (ok, reason, margin)")
