@@ -6,6 +6,7 @@ The world is one block moving along x; checks are trusted Python callables stand
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -151,3 +152,22 @@ RULES = {
     "attached": lambda P, t: all(p[0, 2] > 0 for p in P.values()),
     "arrived": lambda P, t: all(p[0, 0] >= 0.2 for p in P.values()),
 }
+
+
+def user_loop(monitor: Any, world: World, policy: MovePolicy, camera_hz: float = 50.0, t_max: float = 5.0) -> list:
+    """A user's control loop: a camera at ``camera_hz``, the policy stepped in between, every frame
+    handed to the monitor whatever its rate."""
+    decisions = []
+    monitor.start("move the block")
+    while world.t < t_max:
+        d = monitor.step(world.observe(), policy_done=policy.done)
+        decisions.append(d)
+        if d.halt:
+            policy.halt()
+        if d.action is not None:
+            policy.start(d.action)
+        if d.finished:
+            break
+        for _ in range(max(1, round(1 / (camera_hz * policy.dt)))):
+            policy.step()
+    return decisions

@@ -4,7 +4,19 @@ subgoal left with none ends when the policy says it is done (fakes for every sta
 from __future__ import annotations
 
 import pytest
-from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal
+from loop_fakes import (
+    RULES,
+    Coder,
+    History,
+    MovePolicy,
+    Painter,
+    Planner,
+    Runtime,
+    Tracker,
+    World,
+    _subgoal,
+    user_loop,
+)
 
 from code_as_monitor.agent.check_modes import CHECK_MODES, kept_constraints
 from code_as_monitor.agent.code_checker import CodeChecker
@@ -45,18 +57,7 @@ def _run(checks: str, proactive_attached: bool = False) -> tuple[list, list, Pla
     checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), History, AgentConfig(checks=checks))
     m = Monitor(planner, checker, on_event=lambda kind, **f: events.append((kind, f)))
     policy = MovePolicy(w)
-    decisions = []
-    m.start("move the block")
-    while w.t < 5.0:
-        d = m.step(w.observe(), policy_done=policy.done)
-        decisions.append(d)
-        if d.halt:
-            policy.halt()
-        if d.action is not None:
-            policy.start(d.action)
-        if d.finished:
-            break
-        policy.step()
+    decisions = user_loop(m, w, policy)  # 50 Hz with the policy's 0.02 s step: one policy step per frame
     return decisions, events, planner, policy
 
 

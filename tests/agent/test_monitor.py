@@ -8,7 +8,19 @@ import sys
 
 import numpy as np
 import pytest
-from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal
+from loop_fakes import (
+    RULES,
+    Coder,
+    History,
+    MovePolicy,
+    Painter,
+    Planner,
+    Runtime,
+    Tracker,
+    World,
+    _subgoal,
+    user_loop,
+)
 
 from code_as_monitor.agent.code_checker import CodeChecker
 from code_as_monitor.agent.config import AgentConfig, MonitorConfig
@@ -27,30 +39,11 @@ def _monitor(world: World, planner: Planner, events: list | None = None, **cfg) 
                    on_event=emit)
 
 
-def _user_loop(monitor: Monitor, world: World, policy: MovePolicy, camera_hz: float = 50.0, t_max: float = 5.0):
-    """A user's control loop: a camera at ``camera_hz``, the policy stepped in between, every frame
-    handed to the monitor whatever its rate."""
-    decisions = []
-    monitor.start("move the block")
-    while world.t < t_max:
-        d = monitor.step(world.observe(), policy_done=policy.done)
-        decisions.append(d)
-        if d.halt:
-            policy.halt()
-        if d.action is not None:
-            policy.start(d.action)
-        if d.finished:
-            break
-        for _ in range(max(1, round(1 / (camera_hz * policy.dt)))):
-            policy.step()
-    return decisions
-
-
 def test_a_user_loop_gets_start_halt_with_the_violation_then_the_replanned_action_then_task_done() -> None:
     w = World(t_drop=0.3)
     planner = Planner([_subgoal("move block"), _subgoal("move block again", during=False)])
     policy = MovePolicy(w)
-    decisions = _user_loop(_monitor(w, planner), w, policy)
+    decisions = user_loop(_monitor(w, planner), w, policy)
     kinds = [d.kind for d in decisions if d.kind is not DecisionKind.CONTINUE]
     assert kinds[0] is DecisionKind.START and decisions[0].action.skill == "move"
     halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
@@ -71,7 +64,7 @@ def test_frames_that_are_not_due_are_skipped() -> None:
     tracker.step = lambda obs: (seen.append(obs.t), real(obs))[1]
     checker = CodeChecker(Coder(), Painter(), tracker, Runtime(RULES), History, AgentConfig(frame_hz=10.0))
     m = Monitor(Planner([_subgoal("move", during=True, upon=False)]), checker)
-    decisions = _user_loop(m, w, MovePolicy(w, speed=0.05, stop_at=0.2), camera_hz=50.0)
+    decisions = user_loop(m, w, MovePolicy(w, speed=0.05, stop_at=0.2), camera_hz=50.0)
     assert decisions[-1].kind is DecisionKind.TASK_DONE
     gaps = np.diff(seen[: len(seen) - 6])  # the settle frames after the policy finished are one period apart too
     assert len(gaps) > 10 and np.all(gaps > 0.09 - 1e-9), gaps
@@ -79,7 +72,7 @@ def test_frames_that_are_not_due_are_skipped() -> None:
 
 def test_upon_checks_complete_the_subgoal_and_halt_a_moving_policy() -> None:
     w = World()
-    decisions = _user_loop(_monitor(w, Planner([_subgoal("move")])), w, MovePolicy(w))
+    decisions = user_loop(_monitor(w, Planner([_subgoal("move")])), w, MovePolicy(w))
     done = next(d for d in decisions if d.kind is not DecisionKind.START and d.ended is not None)
     assert done.ended.outcome == "success" and done.halt
     assert decisions[-1].kind is DecisionKind.TASK_DONE and done is decisions[-1]
