@@ -108,3 +108,23 @@ def test_connect_streams_the_run_to_a_running_rerun_server(tmp_path: Path) -> No
         assert ents[name] > 0, (name, sorted(ents))
     assert ents["/checks/attached_blue_block/margin"] > 5
     assert ents["/checks/attached_blue_block/alarm"] == 1
+
+
+@pytest.mark.parametrize("url", ["bogus://", "127.0.0.1:9876", "http://127.0.0.1:9876/proxy"])
+def test_a_url_rerun_cannot_use_is_one_line_exit_2_before_any_run_dir(tmp_path: Path, capsys, url: str) -> None:
+    pytest.importorskip("rerun")
+    runs = tmp_path / "runs"
+    assert main(["run", "stack-in-order", "--rerun", "connect", "--rerun-url", url, "--runs", str(runs)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and repr(url) in err[0] and "rerun+http://" in err[0]
+    assert not runs.exists()
+
+
+def test_rerun_url_without_connect_is_one_line_exit_2(tmp_path: Path, capsys) -> None:
+    pytest.importorskip("rerun")
+    runs = tmp_path / "runs"
+    argv = ["run", "stack-in-order", "--rerun", "--rerun-url", "rerun+http://127.0.0.1:9876/proxy", "--runs", str(runs)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--rerun-url applies to --rerun connect" in err[0]
+    assert not runs.exists()

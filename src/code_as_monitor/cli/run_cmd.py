@@ -236,8 +236,12 @@ def check_extras(args: argparse.Namespace) -> None:
 
     if getattr(args, "rerun", None):
         require("rerun", "rerun")
-    elif getattr(args, "rerun_url", None):
-        raise ConfigError("--rerun-url applies to --rerun connect")
+    if getattr(args, "rerun_url", None):
+        if getattr(args, "rerun", None) != "connect":
+            raise ConfigError("--rerun-url applies to --rerun connect")
+        from code_as_monitor.viz.rerun_log import check_url
+
+        check_url(args.rerun_url)
 
 
 def extra_hooks(args: argparse.Namespace, run_dir: Path) -> Hooks:

@@ -26,6 +26,15 @@ from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.extras import require
 
 SINKS = ("save", "spawn", "connect")
+URL_SCHEMES = ("rerun://", "rerun+http://", "rerun+https://")
+"""The schemes rerun-sdk accepts for a viewer's gRPC URL."""
+
+
+def check_url(url: str) -> None:
+    """ConfigError naming ``url`` when it is not a rerun gRPC URL (checked before anything is started)."""
+    if not url.startswith(URL_SCHEMES):
+        raise ConfigError(f"rerun URL {url!r} must start with one of {', '.join(URL_SCHEMES)} "
+                          "(e.g. rerun+http://127.0.0.1:9876/proxy)")
 GREY = (128, 128, 128)
 
 
@@ -45,6 +54,8 @@ class RerunLogger:
             raise ConfigError(f"rerun sink must be one of {', '.join(SINKS)}, got {sink!r}")
         if sink == "save" and path is None:
             raise ConfigError("rerun sink 'save' needs a path for run.rrd")
+        if url is not None:
+            check_url(url)
         rr = require("rerun", "rerun")
         self.rr = rr
         self.rec = rr.RecordingStream(name)
