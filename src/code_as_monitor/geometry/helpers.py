@@ -62,8 +62,9 @@ def direction(L: np.ndarray) -> np.ndarray:
 def normal(S: np.ndarray) -> np.ndarray:
     """Unit normal (3,) of a surface element ``S`` (k >= 3, 3), oriented to have z >= 0.
 
-    Fitted by SVD through all the points (the plane of least squares); for exactly three points that
-    are not collinear, the same plane's normal from the cross product of two edges (no SVD needed).
+    The plane of least squares through all the points: for exactly three points that are not collinear,
+    the cross product of two edges; for more, the closed form of :func:`_least_squares_normal`; the SVD
+    where either would be ill-conditioned or the sign ambiguous (the same plane, at a higher cost).
     """
     S = np.asarray(S, dtype=np.float64).reshape(-1, 3)
     if S.shape[0] < 3:
@@ -76,9 +77,74 @@ def normal(S: np.ndarray) -> np.ndarray:
         if length > 1e-12 * max(1.0, ux * ux + uy * uy + uz * uz, vx * vx + vy * vy + vz * vz):
             s = -1.0 / length if nz < 0 else 1.0 / length
             return np.array([nx * s, ny * s, nz * s])
+    else:
+        n3 = _least_squares_normal(S.tolist())
+        if n3 is not None:
+            return np.array(n3)
     _, _, vt = np.linalg.svd(S - _pt(S), full_matrices=False)
     n = vt[-1]
     return -n if n[2] < 0 else n
+
+
+_GAP = 1e-6
+"""Least gap between the two smallest eigenvalues of a surface's scatter, relative to the largest, for the
+closed-form normal; below it (a line-like or blob-like point set) the SVD decides."""
+_TILT = 1e-6
+"""Least |z| of the closed-form normal: below it (a vertical surface) the sign is the SVD's, bit for bit."""
+
+
+def _least_squares_normal(P: list[list[float]]) -> tuple[float, float, float] | None:
+    """Unit normal of the least-squares plane through ``P`` (k >= 4 points), z >= 0, in closed form.
+
+    The normal is the eigenvector of the points' 3x3 scatter matrix with the smallest eigenvalue (what
+    the SVD's last right singular vector is), the eigenvalues by the trigonometric solution of the
+    characteristic cubic and the vector as the longest cross product of two rows of ``C - lambda I``:
+    a few microseconds of arithmetic instead of an SVD call. Returns None when the answer would be
+    ill-conditioned or its sign ambiguous (see :data:`_GAP`, :data:`_TILT`): the caller then uses the SVD.
+    """
+    k = len(P)
+    mx = sum(q[0] for q in P) / k
+    my = sum(q[1] for q in P) / k
+    mz = sum(q[2] for q in P) / k
+    xx = xy = xz = yy = yz = zz = 0.0
+    for x, y, z in P:
+        x, y, z = x - mx, y - my, z - mz
+        xx += x * x
+        xy += x * y
+        xz += x * z
+        yy += y * y
+        yz += y * z
+        zz += z * z
+    q = (xx + yy + zz) / 3.0
+    off = xy * xy + xz * xz + yz * yz
+    p2 = (xx - q) ** 2 + (yy - q) ** 2 + (zz - q) ** 2 + 2.0 * off
+    if not p2 > 0.0:
+        return None  # isotropic or degenerate (or NaN): no plane
+    p = math.sqrt(p2 / 6.0)
+    a, b, c, d, e, f = (xx - q) / p, xy / p, xz / p, (yy - q) / p, yz / p, (zz - q) / p  # B = (C - qI) / p
+    r = (a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c)) / 2.0
+    phi = math.acos(max(-1.0, min(1.0, r))) / 3.0
+    big = q + 2.0 * p * math.cos(phi)
+    small = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    mid = 3.0 * q - big - small
+    if not (big > 0.0 and mid - small > _GAP * big):
+        return None
+    r0 = (xx - small, xy, xz)
+    r1 = (xy, yy - small, yz)
+    r2 = (xz, yz, zz - small)
+    best, n = -1.0, (0.0, 0.0, 1.0)
+    for u, v in ((r0, r1), (r0, r2), (r1, r2)):
+        c3 = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+        m = c3[0] * c3[0] + c3[1] * c3[1] + c3[2] * c3[2]
+        if m > best:
+            best, n = m, c3
+    length = math.sqrt(best)
+    if not length > 0.0:
+        return None
+    nx, ny, nz = n[0] / length, n[1] / length, n[2] / length
+    if abs(nz) < _TILT:
+        return None
+    return (-nx, -ny, -nz) if nz < 0 else (nx, ny, nz)
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> float:
@@ -162,7 +228,11 @@ def displacement(Hi: np.ndarray) -> float:
     Hi = np.asarray(Hi, dtype=np.float64)
     if Hi.ndim != 3 or Hi.shape[0] < 2:
         return 0.0
-    return _norm(_pt(Hi[-1]) - _pt(Hi[0]))
+    k = Hi.shape[1]
+    if k == 0:
+        return math.nan  # no points: no centroid
+    d = np.add.reduce(Hi[-1] - Hi[0], 0)  # k times the centroid's motion, in one reduction
+    return math.sqrt(float(d.dot(d))) / k
 
 
 MONITOR_HELPERS: dict[str, Callable[..., object]] = {

@@ -28,23 +28,37 @@ def pack(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
     Raises:
         ShapeMismatchError: points are not (k, 3), histories not (T, k, 3), or ``history_t`` not (T,).
     """
-    E = [(int(i), np.asarray(p, dtype=np.float64)) for i, p in elements.items()]
-    for i, p in E:
-        if (p.ndim != 2 or p.shape[1] != 3) and p.shape != (3,):
-            raise ShapeMismatchError(f"element {i}: points must be (k, 3), got {p.shape}")
-    E = [(i, p.reshape(-1, 3)) for i, p in E]
+    asarray, f64 = np.asarray, np.float64
+    layout_e: list[tuple[int, int]] = []
+    parts: list[bytes] = []  # joined as bytes: cheaper than concatenating arrays for a few small ones
+    for i, p in elements.items():
+        p = asarray(p, dtype=f64)
+        s = p.shape
+        if len(s) == 2 and s[1] == 3:
+            k = s[0]
+        elif s == (3,):
+            k = 1
+        else:
+            raise ShapeMismatchError(f"element {i}: points must be (k, 3), got {s}")
+        layout_e.append((int(i), k))
+        parts.append(p.tobytes())
     if history is None:
-        Hs = [(i, p[None]) for i, p in E]
-        Ht = np.array([t], dtype=np.float64)
+        layout_h = [(i, 1, k) for i, k in layout_e]
+        parts += parts[:]  # each element's history is its current points
+        parts.append(np.array([t], dtype=f64).tobytes())
     else:
-        Hs = [(int(i), np.asarray(h, dtype=np.float64)) for i, h in history.items()]
-        Ht = np.asarray(history_t if history_t is not None else [t], dtype=np.float64).reshape(-1)
-        for i, h in Hs:
-            if h.ndim != 3 or h.shape[2] != 3 or h.shape[0] != Ht.shape[0]:
-                raise ShapeMismatchError(f"history of element {i} must be (T={Ht.shape[0]}, k, 3), got {h.shape}")
-    parts = [p.ravel() for _, p in E] + [h.ravel() for _, h in Hs] + [Ht]
-    data = np.concatenate(parts).tobytes() if parts else b""
-    return tuple((i, p.shape[0]) for i, p in E), tuple((i, h.shape[0], h.shape[1]) for i, h in Hs), data
+        Ht = asarray(history_t if history_t is not None else [t], dtype=f64).reshape(-1)
+        T = Ht.shape[0]
+        layout_h = []
+        for i, h in history.items():
+            h = asarray(h, dtype=f64)
+            s = h.shape
+            if len(s) != 3 or s[2] != 3 or s[0] != T:
+                raise ShapeMismatchError(f"history of element {i} must be (T={T}, k, 3), got {s}")
+            layout_h.append((int(i), T, s[1]))
+            parts.append(h.tobytes())
+        parts.append(Ht.tobytes())
+    return tuple(layout_e), tuple(layout_h), b"".join(parts)
 
 
 def unpack(layout_e: tuple, layout_h: tuple, data: bytes) -> tuple[dict, dict, np.ndarray]:
