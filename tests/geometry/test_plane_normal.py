@@ -50,14 +50,14 @@ def test_closed_form_matches_svd_on_random_planes(k: int, noise: float) -> None:
 
 def test_axis_aligned_and_tabletop_surfaces() -> None:
     square = np.array([[-0.02, -0.02, 0.0], [0.02, -0.02, 0.0], [0.02, 0.02, 0.0], [-0.02, 0.02, 0.0]])
-    np.testing.assert_allclose(normal(square + [0.3, 0.0, 0.23]), [0.0, 0.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(normal(square + np.array([0.3, 0.0, 0.23])), [0.0, 0.0, 1.0], atol=1e-12)
     c, s = math.cos(0.3), math.sin(0.3)
     tilted = square @ np.array([[1, 0, 0], [0, c, s], [0, -s, c]])  # turned 0.3 rad about x
     np.testing.assert_allclose(normal(tilted), [0.0, -s, c], atol=1e-12)
 
 
 def test_vertical_surface_is_left_to_the_svd_bit_for_bit() -> None:
-    wall = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.1, 0.0, 0.2], [0.0, 0.0, 0.2]]) + [0.4, 0.1, 0.05]
+    wall = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.1, 0.0, 0.2], [0.0, 0.0, 0.2]]) + np.array([0.4, 0.1, 0.05])
     assert helpers._least_squares_normal(wall.tolist()) is None
     np.testing.assert_array_equal(normal(wall), _svd_normal(wall))
 
