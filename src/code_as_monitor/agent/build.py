@@ -51,6 +51,8 @@ def build_stages(config: MonitorConfig, on_frame: FrameFn | None = None, on_prom
     painter = Painter(make_segmenter(SegmenterConfig.from_name(config.segmenter, **config.segmenter_options)),
                       element_source=config.element_source, connect_points=config.connect_points)
     tracker = make_tracker(TrackerConfig.from_name(config.tracker, **config.tracker_options))
+    if hasattr(tracker, "set_segmenter"):  # the depth tracker detects small objects with it every frame
+        tracker.set_segmenter(painter.segmenter)
     runtime = MonitorRuntime(deadline_s=config.deadline_s, allow_unconfined=config.allow_unconfined or None)
     checker = CodeChecker(coder, painter, tracker, runtime, ElementHistory, config.agent_config(),
                           on_frame=on_frame, on_prompt=on_prompt)

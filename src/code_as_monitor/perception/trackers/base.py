@@ -4,6 +4,7 @@ A tracker follows the painted elements from frame to frame (streaming)::
 
     tracker = make_tracker(TrackerConfig.from_name("lk"))
     tracker.set_reacquire(fn)            # optional: fn(obs, element) -> Element | None
+    tracker.set_segmenter(segmenter)     # optional: the painter's segmenter (depth: small bodies)
     tracker.reset(obs0, elements)        # elements: list[Element], points (k, 3) world metres
     res = tracker.step(obs1)             # res.points[id] (k, 3) world, res.stale[id] (k,) bool
 
@@ -203,6 +204,22 @@ class DepthTrackerConfig(TrackerConfig):
             retrying after the hook found nothing).
         max_depth: metres; depth readings beyond this are invalid.
         min_points: fewest model points (after downsampling) a body needs to be tracked.
+        detect_points, detect_extent: a body whose model has fewer than ``detect_points`` points, or whose
+            largest principal extent is at most ``detect_extent`` metres, is too small to register (too few
+            points to pin a pose; the first ICP round's correspondence distance reaches across it to a
+            touching neighbour): when the tracker has a segmenter it is followed by detection instead
+            (:mod:`code_as_monitor.perception.trackers.depth_detect`). ``detect_points`` 0 and
+            ``detect_extent`` 0 register every body.
+        detect_min_pixels: a detection (a mask in one view) needs at least this many valid depth pixels.
+        detect_gate: a tracked small body takes a detection at most this many of its extents from its
+            predicted position (see depth_detect: identical solid neighbours are about one extent apart).
+        detect_reacquire_gate: a lost small body's gate grows by two extents per lost frame up to this many
+            (identical objects are anonymous: a detection no tracked body takes is one of the lost ones).
+        detect_chroma: a small body takes no detection whose chromaticity ((R, G, B) / (R + G + B) of the mask)
+            is further than this from its own when first detected (0 disables the test).
+        detect_chain: a small body the tool's tip passed within half its extent plus this many extents of, or
+            within about this many extents ahead of such a body (a pile pushes on), is also looked for
+            where the tool's step would have pushed it (0: no such guess).
     """
 
     registration: str = "PLANE_ICP"
@@ -233,6 +250,13 @@ class DepthTrackerConfig(TrackerConfig):
     reacquire_after: int = 2
     max_depth: float = 5.0
     min_points: int = 8
+    detect_points: int = 30
+    detect_extent: float = 0.04
+    detect_min_pixels: int = 3
+    detect_gate: float = 1.0
+    detect_reacquire_gate: float = 20.0
+    detect_chroma: float = 0.1
+    detect_chain: float = 0.5
 
     def __post_init__(self) -> None:
         if self.registration not in ("PLANE_ICP", "GICP", "ICP"):
@@ -253,11 +277,14 @@ class DepthTrackerConfig(TrackerConfig):
         if not 0.0 <= self.max_contradiction <= 1.0:
             raise ConfigError(f"depth.max_contradiction must be in [0, 1], got {self.max_contradiction!r}")
         for f in ("max_iterations", "voxel", "max_model_points", "max_rotation", "depth_tol", "min_seen",
-                  "max_depth", "min_points", "reacquire_after"):
+                  "max_depth", "min_points", "reacquire_after", "detect_min_pixels", "detect_gate"):
             check_positive("depth", f, getattr(self, f))
+        if self.detect_reacquire_gate < self.detect_gate:
+            raise ConfigError(f"depth.detect_reacquire_gate ({self.detect_reacquire_gate!r}) must be >= "
+                              f"depth.detect_gate ({self.detect_gate!r})")
         for f in ("related_parts", "min_information", "margin_px", "box_margin", "plane_band", "tool_radius",
-                  "tool_margin",
-                  "held_distance", "moving", "gravity"):
+                  "tool_margin", "held_distance", "moving", "gravity", "detect_points", "detect_extent",
+                  "detect_chain", "detect_chroma"):
             check_positive("depth", f, getattr(self, f), allow_zero=True)
 
 
@@ -288,10 +315,16 @@ class Tracker(ABC):
 
     def __init__(self) -> None:
         self._reacquire: ReacquireFn | None = None
+        self._segmenter: object | None = None
 
     def set_reacquire(self, fn: ReacquireFn | None) -> None:
         """Hook that re-detects a lost element: ``fn(obs, element) -> Element | None`` (same id)."""
         self._reacquire = fn
+
+    def set_segmenter(self, segmenter: object | None) -> None:
+        """The segmenter the painter uses (``segment_many(view, specs) -> [SegmentResult]``), for a tracker
+        that detects objects every frame (the ``depth`` tracker's small bodies); the others ignore it."""
+        self._segmenter = segmenter
 
     @abstractmethod
     def reset(self, obs: Observation, elements: list[Element]) -> None:

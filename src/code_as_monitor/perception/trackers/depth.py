@@ -31,6 +31,12 @@ Per frame and body:
    :meth:`set_reacquire` re-segments its elements (the agent re-runs the painter); the returned
    elements' clouds become the body's new model.
 
+Small bodies. A body too small to register (:func:`.depth_detect.is_small`: few points or a small extent
+of its painted cloud, measured, never named) is followed by detection when the tracker has the painter's
+segmenter (:meth:`set_segmenter`): each frame the segmenter's masks are lifted to anonymous 3-D centroids and
+associated to the small bodies by position (:mod:`code_as_monitor.perception.trackers.depth_detect`). A small
+part does not make its whole object a body.
+
 Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). An element
 without a cloud (not built from masks) cannot be registered: it is stale until the hook re-paints it.
 A view whose depth or camera is unusable is skipped for the frame with a logged warning.
@@ -42,7 +48,7 @@ import logging
 
 import numpy as np
 
-from code_as_monitor.core.elements import Element
+from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import CamError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.perception.trackers.base import (
@@ -52,6 +58,14 @@ from code_as_monitor.perception.trackers.base import (
     TrackResult,
 )
 from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, support
+from code_as_monitor.perception.trackers.depth_detect import (
+    SmallBody,
+    init_offsets,
+    is_small,
+    principal_extent,
+    track_small,
+)
+from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
 from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, fit_support_plane
 
@@ -68,11 +82,13 @@ class DepthTracker(Tracker):
         self._elements: dict[int, Element] = {}
         self._anchors: dict[int, KinematicAnchor] = {}
         self._bodies: dict[Owner, BodyState] = {}
+        self._small: dict[Owner, SmallBody] = {}  # bodies followed by detection
         self._local: dict[int, np.ndarray] = {}  # element id -> (k, 3) model-frame points
         self._body_of: dict[int, Owner | None] = {}  # None: no cloud, never registered
         self._last: dict[int, np.ndarray] = {}  # element id -> last reported points
         self._plane: Plane | None = None
         self._ee: np.ndarray | None = None  # (4, 4) end-effector pose at the previous frame
+        self._tip_prev: np.ndarray | None = None  # (3,) tool tip at the previous frame
         self._t: float | None = None
         self._warned: set[str] = set()
         self._unbodied: dict[int, int] = {}  # element id -> stale frames, for elements without a body
@@ -85,6 +101,7 @@ class DepthTracker(Tracker):
         self._elements = {el.id: el for el in elements}
         self._anchors.clear()
         self._bodies.clear()
+        self._small.clear()
         self._local.clear()
         self._body_of.clear()
         self._unbodied.clear()
@@ -97,7 +114,11 @@ class DepthTracker(Tracker):
                 self._anchors[el.id] = KinematicAnchor(obs, el)
             else:
                 self._attach(el, views)
+        for sb in self._small.values():
+            sb.t = obs.t
+        init_offsets(list(self._small.values()), self._detect(obs, views), self.config.detect_gate)
         self._ee = _ee_pose(obs)
+        self._tip_prev = _tip(obs) if obs.robot is not None else None
         self._t = obs.t
 
     def step(self, obs: Observation) -> TrackResult:
@@ -112,6 +133,8 @@ class DepthTracker(Tracker):
         moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
         for owner in self._ordered_bodies():
             body = self._bodies[owner]
+            if not body.elements and not any(b.parent == owner for b in self._bodies.values()):
+                continue  # a whole object created for parts that are all followed by detection
             if not body.elements and body.lost and body.lost_frames > c.reacquire_after:
                 continue  # a whole object only its parts use, lost for good (a rope that bent): parts go alone
             related = []
@@ -124,11 +147,20 @@ class DepthTracker(Tracker):
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
         self._resolve_overlaps()
+        if self._small:
+            tip = _tip(obs) if obs.robot is not None else None
+            tips = (self._tip_prev, tip) if (tip is not None and self._tip_prev is not None) else None
+            track_small(c, list(self._small.values()), self._detect(obs, views), obs.t, dT_ee if on else None, tips)
         self._update_held(obs, on)
         self._ee = ee
+        self._tip_prev = _tip(obs) if obs.robot is not None else None
         self._t = obs.t
         self._maybe_reacquire(obs, views)
         return self._result(obs)
+
+    def detected_owners(self) -> set[Owner]:
+        """The (object, part) bodies followed by detection (too small to register) since the last reset."""
+        return set(self._small)
 
     # --- bodies -----------------------------------------------------------------------------------
     def _attach(self, el: Element, views: list[ViewData]) -> None:
@@ -143,6 +175,8 @@ class DepthTracker(Tracker):
             self._body_of[el.id] = None
             return
         owner = (obj, part)
+        if self._attach_small(el, owner, cloud):
+            return
         parent: Owner | None = None
         if part and obj_cloud is not None and len(obj_cloud) and obj_cloud is not cloud:
             parent = (obj, "")
@@ -157,6 +191,42 @@ class DepthTracker(Tracker):
                 self._local[i] = self._last[i].copy()
         body.elements.append(el.id)
         self._body_of[el.id] = owner if body.model is not None else None
+
+    def _attach_small(self, el: Element, owner: Owner, cloud: np.ndarray) -> bool:
+        """Put element ``el`` on a small body followed by detection, when the tracker has a segmenter and the
+        body's cloud is too small to register; False otherwise. Its points are kept relative to the body's
+        reference point (the centroid of the points of the first element painted on it)."""
+        c = self.config
+        if self._segmenter is None:
+            return False
+        sb = self._small.get(owner)
+        if sb is None:
+            try:
+                pts = RigidBody(cloud, c.voxel, self._plane, c.plane_band, c.min_points, c.max_model_points).points
+            except CamError:  # fewer points than registration needs at all
+                pts = np.asarray(cloud, dtype=np.float64).reshape(-1, 3)
+                pts = pts[np.isfinite(pts).all(axis=1)]
+                if not len(pts):
+                    return False
+            if not is_small(pts, c):
+                return False
+            sb = self._small[owner] = SmallBody(owner, ElementSpec(el.name, owner[0], owner[1], el.kind),
+                                                max(principal_extent(pts), 2 * c.voxel), el.points.mean(axis=0))
+        self._local[el.id] = el.points - sb.position
+        if el.id not in sb.elements:
+            sb.elements.append(el.id)
+        self._body_of[el.id] = owner
+        return True
+
+    def _detect(self, obs: Observation, views: list[ViewData]) -> dict[str, ViewDetections]:
+        """This frame's anonymous detections of the small bodies (see depth_detect.detect)."""
+        if not self._small or self._segmenter is None:
+            return {}
+        bodies = list(self._small.values())
+        usable = {v.name for v in views}
+        keys = [k for k, v in obs.views.items() if getattr(v.camera, "name", None) in usable]
+        return detect(self._segmenter, obs, keys, [b.spec for b in bodies],
+                      self.config.detect_min_pixels, max(b.extent for b in bodies))
 
     def _new_body(self, owner: Owner, cloud: np.ndarray, views: list[ViewData], parent: Owner | None) -> BodyState:
         c = self.config
@@ -220,14 +290,17 @@ class DepthTracker(Tracker):
                 continue
             P = apply(body.T_search if body.lost else body.T, body.model.points)
             body.held = bool(np.min(np.linalg.norm(P - tip, axis=1)) <= self.config.held_distance)
+        for sb in self._small.values():
+            sb.held = tip is not None and on and bool(
+                np.linalg.norm(sb.position - tip) <= self.config.held_distance + sb.extent / 2)
 
     # --- re-acquisition ---------------------------------------------------------------------------
     def _maybe_reacquire(self, obs: Observation, views: list[ViewData]) -> None:
         c = self.config
         for eid in self._order:
             owner = self._body_of.get(eid, "robot")
-            if owner == "robot" or eid in self._anchors:
-                continue
+            if owner == "robot" or eid in self._anchors or owner in self._small:
+                continue  # small bodies are re-acquired by their anonymous detections, not by name
             body = self._bodies.get(owner) if owner is not None else None
             if body is not None and not body.lost:
                 continue
@@ -280,6 +353,14 @@ class DepthTracker(Tracker):
                 points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
                 continue
             owner = self._body_of.get(eid)
+            sb = self._small.get(owner) if owner is not None else None
+            if sb is not None:
+                if not sb.lost:
+                    self._last[eid] = sb.position + self._local[eid]
+                points[eid] = self._last[eid].copy()
+                stale[eid] = np.full(len(points[eid]), sb.lost)
+                visible[eid] = sb.seen_views
+                continue
             body = self._bodies.get(owner) if owner is not None else None
             fresh = eid in self._fresh
             if body is not None and not body.lost:
