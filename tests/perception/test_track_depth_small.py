@@ -18,7 +18,7 @@ from code_as_monitor.perception.trackers.base import DepthTrackerConfig, Tracker
 from code_as_monitor.perception.trackers.depth_detect import is_small
 
 BLOCK = 0.02
-BEAD = 0.016
+BEAD = 0.01  # a bead this size leaves fewer than 30 points after the 3 mm voxel grid
 
 
 class RopeScene(Scene):
@@ -80,6 +80,9 @@ def test_small_is_measured_on_the_cloud_not_named():
     assert is_small(rng.uniform(0, 0.1, (12, 3)), c)  # too few points whatever its size
     assert not is_small(rng.uniform(0, 0.06, (200, 3)), c)  # a 6 cm block is registered
     assert not is_small(rng.uniform(0, 0.02, (60, 3)), DepthTrackerConfig(detect_points=0, detect_extent=0.0))
+    # a part registered with its object's motion (a pen's tip) is small only when it has too few points
+    assert not is_small(rng.uniform(0, 0.02, (60, 3)), c, part_of_larger=True)
+    assert is_small(rng.uniform(0, 0.02, (20, 3)), c, part_of_larger=True)
     with pytest.raises(ConfigError, match="detect_reacquire_gate"):
         DepthTrackerConfig(detect_gate=2.0, detect_reacquire_gate=1.0)
 
@@ -109,7 +112,7 @@ def test_pile_of_small_blocks_pushed_together_is_followed():
             assert err < 0.004, (f, e.name, err)
 
 
-def _rope(n: int, spacing: float = 0.017) -> list[Box]:
+def _rope(n: int, spacing: float = 0.012) -> list[Box]:
     return [Box(f"bead_{i:02d}", np.array([-0.08 + i * spacing, 0.0, BEAD / 2]), np.full(3, BEAD),
                 color=(240, 130, 30), textured=False) for i in range(n)]
 
@@ -119,7 +122,8 @@ def _bead_specs(beads: list[Box]) -> list[ElementSpec]:
 
 
 def test_rope_beads_moving_together_are_followed():
-    """A rope of eight beads dragged sideways and bent (each bead its own speed, up to 12 mm per frame)."""
+    """A rope of eight 1 cm beads 12 mm apart dragged sideways and bent (each bead its own speed, up to
+    12 mm per frame)."""
     cams = two_cameras()
     beads = _rope(8)
     scene = RopeScene(beads, table_textured=False)
@@ -144,6 +148,7 @@ def test_occluded_bead_is_stale_then_reacquired():
     beads = _rope(4, spacing=0.06)
     scene = RopeScene(beads, table_textured=False)
     tr, els = _track(scene, cams, _bead_specs(beads))
+    assert len(tr.detected_owners()) == len(beads)
     off = _offsets(els, beads)
     hidden, e_h = beads[2], els[2]
     cup = Box("cup", hidden.center + np.array([0.0, 0.0, 0.002]), np.array([0.05, 0.05, 0.02]), color=(90, 90, 90),
@@ -171,14 +176,15 @@ def test_occluded_bead_is_stale_then_reacquired():
 
 
 def test_two_beads_passing_close_keep_their_identities():
-    """Two identical beads on parallel lanes 19 mm apart pass each other head-on at 8 mm per frame each. The
-    gate is one extent of the bead (about its 16 mm size): the other bead is never nearer to a bead's
-    prediction than its own detection, so the assignment of least total distance keeps them apart."""
+    """Two identical 1 cm beads on parallel lanes 13 mm apart pass each other head-on at 8 mm per frame each.
+    The gate is one extent of the bead's painted cloud (about its size): the other bead is never nearer to a
+    bead's prediction than its own detection, so the assignment of least total distance keeps them apart."""
     cams = two_cameras()
     a = Box("bead_00", np.array([-0.05, 0.0, BEAD / 2]), np.full(3, BEAD), color=(240, 130, 30), textured=False)
-    b = Box("bead_01", np.array([0.05, 0.019, BEAD / 2]), np.full(3, BEAD), color=(240, 130, 30), textured=False)
+    b = Box("bead_01", np.array([0.05, 0.013, BEAD / 2]), np.full(3, BEAD), color=(240, 130, 30), textured=False)
     scene = RopeScene([a, b], table_textured=False)
     tr, els = _track(scene, cams, _bead_specs([a, b]))
+    assert tr.detected_owners() == {("rope", "bead_00"), ("rope", "bead_01")}
     off = _offsets(els, [a, b])
     for f in range(1, 14):
         a.center = a.center + np.array([0.008, 0.0, 0.0])

@@ -175,10 +175,11 @@ class DepthTracker(Tracker):
             self._body_of[el.id] = None
             return
         owner = (obj, part)
-        if self._attach_small(el, owner, cloud):
+        has_parent = bool(part) and obj_cloud is not None and len(obj_cloud) > 0 and obj_cloud is not cloud
+        if self._attach_small(el, owner, cloud, has_parent):
             return
         parent: Owner | None = None
-        if part and obj_cloud is not None and len(obj_cloud) and obj_cloud is not cloud:
+        if has_parent:
             parent = (obj, "")
             if parent not in self._bodies or self._bodies[parent].lost:
                 self._bodies[parent] = self._new_body(parent, obj_cloud, views, None)
@@ -192,7 +193,7 @@ class DepthTracker(Tracker):
         body.elements.append(el.id)
         self._body_of[el.id] = owner if body.model is not None else None
 
-    def _attach_small(self, el: Element, owner: Owner, cloud: np.ndarray) -> bool:
+    def _attach_small(self, el: Element, owner: Owner, cloud: np.ndarray, has_parent: bool) -> bool:
         """Put element ``el`` on a small body followed by detection, when the tracker has a segmenter and the
         body's cloud is too small to register; False otherwise. Its points are kept relative to the body's
         reference point (the centroid of the points of the first element painted on it)."""
@@ -208,7 +209,7 @@ class DepthTracker(Tracker):
                 pts = pts[np.isfinite(pts).all(axis=1)]
                 if not len(pts):
                     return False
-            if not is_small(pts, c):
+            if not is_small(pts, c, has_parent):
                 return False
             sb = self._small[owner] = SmallBody(owner, ElementSpec(el.name, owner[0], owner[1], el.kind),
                                                 max(principal_extent(pts), 2 * c.voxel), el.points.mean(axis=0))

@@ -8,8 +8,9 @@ round's 2 cm correspondence distance, so in a pile its registration can slide on
 neighbour that fits as well.
 
 Which bodies (:func:`is_small`), measured on the body's painted cloud after the tracker's voxel grid (the
-registration model :class:`.depth_body.RigidBody`): fewer than ``detect_points`` points, or a largest
-principal extent of at most ``detect_extent`` metres. Nothing names a task or an object. Only when the
+registration model :class:`.depth_body.RigidBody`): fewer than ``detect_points`` points, or, for a whole
+object (not a part registered with its object's motion as a guess), a largest principal extent of at most
+``detect_extent`` metres. Nothing names a task or an object. Only when the
 tracker has a segmenter (:meth:`.base.Tracker.set_segmenter`; the agent passes the painter's); without one
 every body is registered.
 
@@ -115,9 +116,16 @@ def principal_extent(points: np.ndarray) -> float:
     return float(Q.max() - Q.min())
 
 
-def is_small(model_points: np.ndarray, c: DepthTrackerConfig) -> bool:
-    """Whether a body whose registration model has ``model_points`` (N, 3) is followed by detection."""
-    return len(model_points) < c.detect_points or principal_extent(model_points) <= c.detect_extent
+def is_small(model_points: np.ndarray, c: DepthTrackerConfig, part_of_larger: bool = False) -> bool:
+    """Whether a body whose registration model has ``model_points`` (N, 3) is followed by detection.
+
+    ``part_of_larger``: the body is a part whose element also carries its whole object's cloud (a pen's tip,
+    a rope's bead). Such a part is registered with its object's motion among its guesses, which keeps it off
+    an identical neighbour: only too few points (``detect_points``) make it small, not its extent.
+    """
+    if len(model_points) < c.detect_points:
+        return True
+    return not part_of_larger and principal_extent(model_points) <= c.detect_extent
 
 
 def _assign(pred: list[np.ndarray], cand: list[np.ndarray], gates: np.ndarray,
