@@ -80,9 +80,6 @@ def test_small_is_measured_on_the_cloud_not_named():
     assert is_small(rng.uniform(0, 0.1, (12, 3)), c)  # too few points whatever its size
     assert not is_small(rng.uniform(0, 0.06, (200, 3)), c)  # a 6 cm block is registered
     assert not is_small(rng.uniform(0, 0.02, (60, 3)), DepthTrackerConfig(detect_points=0, detect_extent=0.0))
-    # a part registered with its object's motion (a pen's tip) is small only when it has too few points
-    assert not is_small(rng.uniform(0, 0.02, (60, 3)), c, part_of_larger=True)
-    assert is_small(rng.uniform(0, 0.02, (20, 3)), c, part_of_larger=True)
     with pytest.raises(ConfigError, match="detect_reacquire_gate"):
         DepthTrackerConfig(detect_gate=2.0, detect_reacquire_gate=1.0)
 
@@ -205,3 +202,27 @@ def test_without_a_segmenter_small_bodies_are_registered():
     tr = make_tracker(TrackerConfig.from_name("depth"))
     tr.reset(obs, els)  # type: ignore[arg-type]
     assert tr.detected_owners() == set()
+
+
+class StickScene(Scene):
+    """Box ``shaft`` (long) and box ``tip`` (1 cm, at its end) are the parts of one object ``stick``."""
+
+    def labels(self) -> dict[int, tuple[str, str]]:
+        out = super().labels()
+        for j, b in enumerate(self.boxes):
+            out[10 + 2 * j] = out[11 + 2 * j] = ("stick", b.name)
+        return out
+
+
+def test_small_part_of_an_object_with_a_registrable_part_stays_registered():
+    """A stick's 1 cm tip is small, but its 12 cm shaft is painted too: the tip moves with the registered
+    stick (as before); painted alone, the tip is tracked by detection."""
+    cams = two_cameras()
+    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
+    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    scene = StickScene([shaft, tip], table_textured=False)
+    both = [ElementSpec("stick shaft", "stick", "shaft", "line"), ElementSpec("stick tip", "stick", "tip")]
+    tr, _ = _track(scene, cams, both)
+    assert tr.detected_owners() == set()
+    tr, _ = _track(scene, cams, both[1:])
+    assert tr.detected_owners() == {("stick", "tip")}

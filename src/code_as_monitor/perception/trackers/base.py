@@ -204,8 +204,8 @@ class DepthTrackerConfig(TrackerConfig):
             retrying after the hook found nothing).
         max_depth: metres; depth readings beyond this are invalid.
         min_points: fewest model points (after downsampling) a body needs to be tracked.
-        detect_points, detect_extent: a body whose model has fewer than ``detect_points`` points, or a whole
-            object whose largest principal extent is at most ``detect_extent`` metres, is too small to register
+        detect_points, detect_extent: a body whose model has fewer than ``detect_points`` points, or whose
+            largest principal extent is at most ``detect_extent`` metres, is too small to register
             (too few points to pin a pose; the first ICP round's correspondence distance reaches across it to a
             touching neighbour): when the tracker has a segmenter it is followed by detection instead
             (:mod:`code_as_monitor.perception.trackers.depth_detect`). ``detect_points`` 0 and

@@ -62,7 +62,9 @@ from code_as_monitor.perception.trackers.depth_detect import (
     SmallBody,
     init_offsets,
     is_small,
+    model_points,
     principal_extent,
+    registrable_objects,
     track_small,
 )
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
@@ -83,6 +85,7 @@ class DepthTracker(Tracker):
         self._anchors: dict[int, KinematicAnchor] = {}
         self._bodies: dict[Owner, BodyState] = {}
         self._small: dict[Owner, SmallBody] = {}  # bodies followed by detection
+        self._registrable: set[str] = set()  # objects with an element big enough to register
         self._local: dict[int, np.ndarray] = {}  # element id -> (k, 3) model-frame points
         self._body_of: dict[int, Owner | None] = {}  # None: no cloud, never registered
         self._last: dict[int, np.ndarray] = {}  # element id -> last reported points
@@ -109,6 +112,7 @@ class DepthTracker(Tracker):
         self._last = {el.id: el.points.copy() for el in elements}
         views = self._usable_views(obs)
         self._plane = fit_support_plane(views, self.config.plane_band, self.config.max_depth)
+        self._registrable = registrable_objects(elements, self.config, self._plane) if self._segmenter else set()
         for el in elements:
             if el.owner[0] in self.config.kinematic_owners:
                 self._anchors[el.id] = KinematicAnchor(obs, el)
@@ -175,11 +179,10 @@ class DepthTracker(Tracker):
             self._body_of[el.id] = None
             return
         owner = (obj, part)
-        has_parent = bool(part) and obj_cloud is not None and len(obj_cloud) > 0 and obj_cloud is not cloud
-        if self._attach_small(el, owner, cloud, has_parent):
+        if self._attach_small(el, owner, cloud):
             return
         parent: Owner | None = None
-        if has_parent:
+        if part and obj_cloud is not None and len(obj_cloud) and obj_cloud is not cloud:
             parent = (obj, "")
             if parent not in self._bodies or self._bodies[parent].lost:
                 self._bodies[parent] = self._new_body(parent, obj_cloud, views, None)
@@ -193,23 +196,18 @@ class DepthTracker(Tracker):
         body.elements.append(el.id)
         self._body_of[el.id] = owner if body.model is not None else None
 
-    def _attach_small(self, el: Element, owner: Owner, cloud: np.ndarray, has_parent: bool) -> bool:
+    def _attach_small(self, el: Element, owner: Owner, cloud: np.ndarray) -> bool:
         """Put element ``el`` on a small body followed by detection, when the tracker has a segmenter and the
-        body's cloud is too small to register; False otherwise. Its points are kept relative to the body's
-        reference point (the centroid of the points of the first element painted on it)."""
+        body's cloud is too small to register (and it is not a part of an object with a registrable element);
+        False otherwise. Its points are kept relative to the body's reference point (the centroid of the
+        points of the first element painted on it)."""
         c = self.config
-        if self._segmenter is None:
+        if self._segmenter is None or (owner[1] and owner[0] in self._registrable):
             return False
         sb = self._small.get(owner)
         if sb is None:
-            try:
-                pts = RigidBody(cloud, c.voxel, self._plane, c.plane_band, c.min_points, c.max_model_points).points
-            except CamError:  # fewer points than registration needs at all
-                pts = np.asarray(cloud, dtype=np.float64).reshape(-1, 3)
-                pts = pts[np.isfinite(pts).all(axis=1)]
-                if not len(pts):
-                    return False
-            if not is_small(pts, c, has_parent):
+            pts = model_points(cloud, c, self._plane)
+            if not len(pts) or not is_small(pts, c):
                 return False
             sb = self._small[owner] = SmallBody(owner, ElementSpec(el.name, owner[0], owner[1], el.kind),
                                                 max(principal_extent(pts), 2 * c.voxel), el.points.mean(axis=0))

@@ -8,9 +8,11 @@ round's 2 cm correspondence distance, so in a pile its registration can slide on
 neighbour that fits as well.
 
 Which bodies (:func:`is_small`), measured on the body's painted cloud after the tracker's voxel grid (the
-registration model :class:`.depth_body.RigidBody`): fewer than ``detect_points`` points, or, for a whole
-object (not a part registered with its object's motion as a guess), a largest principal extent of at most
-``detect_extent`` metres. Nothing names a task or an object. Only when the
+registration model :class:`.depth_body.RigidBody`): fewer than ``detect_points`` points, or a largest
+principal extent of at most ``detect_extent`` metres. A small *part* of an object that has another element
+large enough to register (a pen's tip beside its shaft) stays registered, with its object's motion among
+its guesses, as before: it is rigid with something trackable. The parts of an object whose painted
+elements are all small (a rope's beads) are tracked by detection. Nothing names a task or an object. Only when the
 tracker has a segmenter (:meth:`.base.Tracker.set_segmenter`; the agent passes the painter's); without one
 every body is registered.
 
@@ -65,9 +67,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from code_as_monitor.core.elements import ElementSpec
+from code_as_monitor.core.elements import Element, ElementSpec
+from code_as_monitor.core.errors import CamError
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
+from code_as_monitor.perception.trackers.depth_body import RigidBody
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections
+from code_as_monitor.perception.trackers.depth_views import Plane
 
 Owner = tuple[str, str]
 NO_MATCH = 1e6  # cost of a pair outside its gate (never chosen over "no detection")
@@ -116,16 +121,32 @@ def principal_extent(points: np.ndarray) -> float:
     return float(Q.max() - Q.min())
 
 
-def is_small(model_points: np.ndarray, c: DepthTrackerConfig, part_of_larger: bool = False) -> bool:
-    """Whether a body whose registration model has ``model_points`` (N, 3) is followed by detection.
+def is_small(model_points: np.ndarray, c: DepthTrackerConfig) -> bool:
+    """Whether a body whose registration model has ``model_points`` (N, 3) is too small to register."""
+    return len(model_points) < c.detect_points or principal_extent(model_points) <= c.detect_extent
 
-    ``part_of_larger``: the body is a part whose element also carries its whole object's cloud (a pen's tip,
-    a rope's bead). Such a part is registered with its object's motion among its guesses, which keeps it off
-    an identical neighbour: only too few points (``detect_points``) make it small, not its extent.
-    """
-    if len(model_points) < c.detect_points:
-        return True
-    return not part_of_larger and principal_extent(model_points) <= c.detect_extent
+
+def model_points(cloud: np.ndarray, c: DepthTrackerConfig, plane: Plane | None) -> np.ndarray:
+    """(N, 3) the points a body painted from ``cloud`` would register (its finite points when too few)."""
+    try:
+        return RigidBody(cloud, c.voxel, plane, c.plane_band, c.min_points, c.max_model_points).points
+    except CamError:  # fewer points than registration needs at all
+        pts = np.asarray(cloud, dtype=np.float64).reshape(-1, 3)
+        return pts[np.isfinite(pts).all(axis=1)]
+
+
+def registrable_objects(elements: Sequence[Element], c: DepthTrackerConfig, plane: Plane | None) -> set[str]:
+    """Objects with at least one painted element whose cloud is not too small to register (their small
+    parts stay registered with them)."""
+    out: set[str] = set()
+    for el in elements:
+        cloud = getattr(el, "cloud", None)
+        if cloud is None or not len(cloud):
+            cloud = getattr(el, "object_cloud", None) if not el.owner[1] else None
+        if el.owner[0] not in c.kinematic_owners and cloud is not None and len(cloud) \
+                and el.owner[0] not in out and not is_small(model_points(cloud, c, plane), c):
+            out.add(el.owner[0])
+    return out
 
 
 def _assign(pred: list[np.ndarray], cand: list[np.ndarray], gates: np.ndarray,
