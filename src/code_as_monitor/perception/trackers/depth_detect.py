@@ -137,9 +137,13 @@ def model_points(cloud: np.ndarray, c: DepthTrackerConfig, plane: Plane | None) 
 
 def registrable_objects(elements: Sequence[Element], c: DepthTrackerConfig, plane: Plane | None) -> set[str]:
     """Objects with at least one painted element whose cloud is not too small to register (their small
-    parts stay registered with them)."""
+    parts stay registered with them). A part element that no view saw, built from its whole object's masks
+    instead (``support.part_seen`` False), does not count: its cloud is not the part's."""
     out: set[str] = set()
     for el in elements:
+        support = getattr(el, "support", None)
+        if el.owner[1] and support is not None and not support.part_seen:
+            continue
         cloud = getattr(el, "cloud", None)
         if cloud is None or not len(cloud):
             cloud = getattr(el, "object_cloud", None) if not el.owner[1] else None
