@@ -226,3 +226,22 @@ def test_small_part_of_an_object_with_a_registrable_part_stays_registered():
     assert tr.detected_owners() == set()
     tr, _ = _track(scene, cams, both[1:])
     assert tr.detected_owners() == {("stick", "tip")}
+
+
+def test_a_part_built_from_its_whole_object_does_not_make_the_object_registrable():
+    """A bead no view saw is painted from the whole rope's masks (``part_seen`` False): its rope-wide cloud
+    does not count as a registrable element of the rope."""
+    from code_as_monitor.core.elements import ElementKind, ElementSupport
+    from code_as_monitor.perception.trackers.depth_detect import registrable_objects
+
+    rng = np.random.default_rng(2)
+    rope = rng.uniform(0, 0.3, (400, 3))
+
+    def bead(i: int, cloud: np.ndarray, seen: bool) -> Element:
+        return Element(i, f"bead {i}", ElementKind.POINT, cloud.mean(axis=0)[None], ("rope", f"bead_{i:02d}"),
+                       cloud=cloud, object_cloud=rope, support=ElementSupport(len(cloud), 2, 0.001, part_seen=seen))
+
+    c = DepthTrackerConfig()
+    small = rng.uniform(0, 0.015, (20, 3))
+    assert registrable_objects([bead(0, small, True), bead(1, rope, False)], c, None) == set()
+    assert registrable_objects([bead(0, small, True), bead(1, rope, True)], c, None) == {"rope"}
