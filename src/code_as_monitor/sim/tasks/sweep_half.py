@@ -22,8 +22,8 @@ Is an over-sweep final? No skill takes a block out of the zone: ``push_into_regi
 are outside towards the zone, and the kb planner stops once the band is exceeded. But a stroke into a full
 zone shoves the pile, and blocks on its far side can leave the zone: the open-loop push keeps going after an
 over-sweep and the count drifts down as well as up. In the round-2 records (``results/published/
-cliport-round2.jsonl``, sweep-half) every open-loop episode exceeded 24, reaching 32-37, and 6 of 60 ended in
-band at the time limit by that drift. So the event is the failure "if nothing is done" (a halted arm leaves
+cliport-round2.jsonl``, sweep-half) all 60 open-loop episodes exceeded 24 (peaks 32-38); by that drift 6 ended
+in band at the time limit and 3 below it. So the event is the failure "if nothing is done" (a halted arm leaves
 resting blocks where they are, and the policy's continuation fails 54 times in 60), and the metrics
 (:func:`code_as_monitor.bench.metrics.failures`) treat an over-sweep like a drop that landed on its target
 when the episode's final count is back in ``band``: logged, but it did not change the outcome.
