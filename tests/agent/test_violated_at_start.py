@@ -60,10 +60,14 @@ def runtime():
 def _run(runtime: MonitorRuntime, attached: str) -> tuple[list, list, Planner, Coder, MovePolicy]:
     w = World()
     events: list = []
+
+    def on_frame(obs, elements, stale, verdicts, banner) -> None:
+        events.append(("frame", {"t": obs.t, "banner": banner, "verdicts": [v.constraint_id for v in verdicts]}))
+
     coder = Coder(attached)
     planner = Planner([_subgoal("move block"), _subgoal("move block again", during=False)])
     cfg = AgentConfig(code_retries=2)
-    checker = CodeChecker(coder, Painter(), Tracker(w), runtime, History, cfg)
+    checker = CodeChecker(coder, Painter(), Tracker(w), runtime, History, cfg, on_frame=on_frame)
     monitor = Monitor(planner, checker, max_replans=3, on_event=lambda kind, **f: events.append((kind, f)))
     policy = MovePolicy(w)
     return user_loop(monitor, w, policy), events, planner, coder, policy
@@ -84,6 +88,8 @@ def test_a_check_violated_on_the_starting_state_is_an_alarm_at_once_not_a_reject
     assert "program_rejected" not in kinds and kinds.count("alarm") == 1
     verdict = next(f for k, f in events if k == "verdict")
     assert verdict["constraint_id"] == "attached" and verdict["ok"] is False
+    frame = next(f for k, f in events if k == "frame")  # a video or live view shows the violation too
+    assert frame == {"t": 0.0, "banner": "VIOLATION attached: block is 0.000 m high", "verdicts": ["attached"]}
     assert decisions[-1].kind is DecisionKind.TASK_DONE
 
 
