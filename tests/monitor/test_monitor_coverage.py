@@ -51,6 +51,21 @@ d = distance(E[0], E[1])
 return d < 0.01, f"{d:.3f} m from the tip"
 ''')
 
+NEVER_HOLDS = _a('''
+d = distance(E[0], E[1])
+return d < -1.0, f"{d:.3f} m from the tip"
+''')
+
+UPON_FALSE_AT_START = """
+def check_a(E, H, t):
+    d = distance(E[0], E[1])
+    return d < 0.05, f"{d:.3f} m from the tip"
+
+def check_b(E, H, t):
+    h = E[1][:, 2].mean()
+    return bool(h > 0.21), f"height {h:.3f} m"
+"""
+
 LOOPS_WHEN_FAR = _a('''
 d = distance(E[0], E[1])
 if d > 0.15:
@@ -117,12 +132,37 @@ def test_non_bool_result_on_a_rare_branch(sandbox, constraints, scene):
         check_path_coverage(NON_BOOL_BRANCH, constraints, scene, H, np.linspace(0.6, 1.0, 5), 1.0, sandbox)
 
 
-def test_during_check_failing_at_start(sandbox, constraints, scene):
-    with pytest.raises(CoverageError) as err:
-        _run(FAILS_AT_START, constraints, scene, sandbox)
+def test_during_check_failing_at_start_is_a_violation_not_a_bad_program(sandbox, constraints, scene):
+    """False on the starting state but True on some perturbation: the program works and the world violates
+    its constraint. Accepted, with the starting verdict kept for the agent to raise as an alarm."""
+    report = _run(FAILS_AT_START, constraints, scene, sandbox)
+    assert report.ok and report.outcomes["check_a"][0] > 0 and report.outcomes["check_a"][1] > 0
+    assert [(v.constraint_id, v.ok, v.fault, v.reason) for v in report.violated_at_start] == [
+        ("a", False, False, "0.020 m from the tip")]
+    assert report.violated_at_start[0].t == 1.0
+    assert report.failing_at_start == ["check_a: returned False, '0.020 m from the tip'"]
+    assert report.message().startswith("path coverage passed") and "reported as an alarm" in report.message()
+    with pytest.raises(CoverageError) as err:  # the old rule, kept as a stricter setting
+        _run(FAILS_AT_START, constraints, scene, sandbox, reject_failing_at_start=True)
     assert "already fail on the starting state" in str(err.value)
     assert "check_a: returned False, '0.020 m from the tip'" in str(err.value)
     assert "check_b" not in str(err.value)  # an upon check may well be False at the start
+
+
+def test_upon_check_false_at_start_is_not_a_violation(sandbox, constraints, scene):
+    report = _run(UPON_FALSE_AT_START, constraints, scene, sandbox)
+    assert report.outcomes["check_b"][1] > 0 and report.outcomes["check_b"][0] > 0
+    assert report.ok and not report.violated_at_start and not report.failing_at_start
+
+
+def test_during_check_that_can_never_hold_is_still_rejected(sandbox, constraints, scene):
+    """False on the starting state and on every perturbation: not a violation to report but a check that
+    can never be satisfied; the coder gets it back."""
+    with pytest.raises(CoverageError) as err:
+        _run(NEVER_HOLDS, constraints, scene, sandbox)
+    msg = str(err.value)
+    assert "check_a: returned False on all" in msg and "can never be satisfied" in msg
+    assert err.value.report.violated_at_start  # recorded, but the constant answer is what rejects it
 
 
 def test_overrun_on_a_branch_stops_early(constraints, scene):

@@ -46,9 +46,26 @@ def test_rejected_program_drops_the_previous_one(constraints, scene):
         with pytest.raises(SandboxError, match="without a started program"):
             rt.step(scene, None, None, 0.0)
         with pytest.raises(ProgramError, match="path coverage failed"):
-            rt.start(GOOD.replace("0.05", "0.01"), constraints, scene)  # during check fails at start
+            rt.start(GOOD.replace("0.05", "-1.0"), constraints, scene)  # during check can never hold
+        with pytest.raises(SandboxError, match="without a started program"):
+            rt.step(scene, None, None, 0.0)
         rt.start(GOOD, constraints, scene)
         assert upon_satisfied(rt.step(scene, None, None, 0.0))
+
+
+def test_a_during_check_violated_at_start_is_loaded_and_reported(constraints, scene):
+    """The world already violates the constraint (the block is 2 cm from the tip, the check allows 1 cm): the
+    program is accepted and loaded, the report carries the starting violation, and step says the same."""
+    strict = GOOD.replace("0.05", "0.01")
+    with MonitorRuntime(deadline_s=0.1, n_perturbations=32) as rt:
+        report = rt.start(strict, constraints, scene, None, None, 0.5)
+        assert report.ok and [(v.constraint_id, v.reason) for v in report.violated_at_start] == [
+            ("a", "block is 0.020 m from the tip")]
+        v = rt.step(scene, None, None, 0.6)
+        assert [(x.constraint_id, x.reason) for x in during_violations(v)] == [("a", "block is 0.020 m from the tip")]
+    with MonitorRuntime(deadline_s=0.1, n_perturbations=32, reject_failing_at_start=True) as rt, \
+            pytest.raises(ProgramError, match="already fail on the starting state"):
+        rt.start(strict, constraints, scene)
 
 
 def test_faults_are_never_violations_nor_satisfactions():

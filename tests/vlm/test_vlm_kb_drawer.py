@@ -99,7 +99,8 @@ def test_drawer_programs_pass_validation_and_path_coverage(make_elements):
                 els = make_elements(subgoal, _scene(yaw, state))
                 cons = subgoal.constraints
                 src = coder.write_program(subgoal, els, {}, lambda s, cons=cons: validate.validate_program(s, cons))
-                coverage.check_path_coverage(src, cons, {e.id: e.points for e in els}, None, None, 0.0, box)
+                coverage.check_path_coverage(src, cons, {e.id: e.points for e in els}, None, None, 0.0, box,
+                                     reject_failing_at_start=True)
     finally:
         box.close()
 

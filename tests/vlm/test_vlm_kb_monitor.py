@@ -58,7 +58,8 @@ def test_kb_programs_pass_validation_and_path_coverage(make_elements):
             cons = subgoal.constraints
             src = coder.write_program(subgoal, els, {}, lambda s, cons=cons: validate.validate_program(s, cons))
             E = {e.id: e.points for e in els}
-            coverage.check_path_coverage(src, cons, E, None, None, 0.0, box)
+            coverage.check_path_coverage(src, cons, E, None, None, 0.0, box,
+                                     reject_failing_at_start=True)
         assert coder.usage.calls == 6  # one program per subgoal, no re-asks
     finally:
         box.close()

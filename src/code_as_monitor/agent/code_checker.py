@@ -2,7 +2,10 @@
 then track the elements and run the program in the sandbox on every due frame.
 
 At the subgoal's start (:meth:`CodeChecker.begin`): paint -> write the program (VLM call 2, plus
-bounded regenerations on validation / path-coverage errors) -> reset the tracker. Every due frame
+bounded regenerations on validation / path-coverage errors) -> reset the tracker. A ``during`` check of
+the accepted program that is already False on the starting state (path coverage's ``violated_at_start``:
+the program works, the world violates its constraint) is an alarm at once, with the check's reason, and
+ends the subgoal ``violated`` before its action starts. Every due frame
 (:meth:`CodeChecker.frame`): track, push the history, evaluate every check. A violated ``during``
 check ends the subgoal (``violated``, halt); every ``upon`` check holding for ``upon_dwell_frames``
 frames ends it (``success``, halting a still-moving policy); a policy that finished is judged on
@@ -91,11 +94,13 @@ class CodeChecker:
         history.push(obs.t, positions)
 
         attempts = {"n": 0}
+        accepted: dict[str, Any] = {"report": None}  # the coverage report of the program last accepted
 
         def check(source: str) -> None:
             attempts["n"] += 1
+            accepted["report"] = None
             H, ht = history.arrays()
-            self.runtime.start(source, subgoal.constraints, positions, H, ht, obs.t)
+            accepted["report"] = self.runtime.start(source, subgoal.constraints, positions, H, ht, obs.t)
 
         try:
             source = self.coder.write_program(subgoal, elements, painted.images, check=check,
@@ -120,7 +125,22 @@ class CodeChecker:
         self._uses = {c.id: set(c.element_ids) for c in subgoal.constraints}
         self._unknown_before: set[str] = set()
         self._settling = False
+        at_start = list(getattr(accepted["report"], "violated_at_start", None) or ())
+        if at_start:
+            return self._violated_at_start(obs, at_start, ctx)
         return None
+
+    def _violated_at_start(self, obs: Observation, verdicts: list[Verdict], ctx: MonitorContext) -> SubgoalEnd:
+        """The world already violates ``during`` constraints on the subgoal's starting state: alarm on the first
+        (in constraint order, as a frame would), end the subgoal before its action starts (nothing to halt)."""
+        for v in verdicts:
+            self._verdict_state[v.constraint_id] = "violated"
+            ctx.emit("verdict", **v.to_dict())
+        v = verdicts[0]
+        ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, obs.t)
+        if self.on_frame is not None:
+            self.on_frame(obs, self._elements, {}, verdicts, f"VIOLATION {v.constraint_id}: {v.reason}")
+        return self._end_of("violated", f"{v.constraint_id}: {v.reason}")
 
     # --- every frame ------------------------------------------------------------------------------------
     def frame_due(self, t: float, policy_done: bool) -> bool:

@@ -7,13 +7,21 @@ this process), evaluates it on the current element state and on perturbations of
 * checks that raise, return a malformed result or overrun the deadline, with the input that did it;
 * checks whose answer never changes: True on every input (they can never report a violation) or
   False on every input (they can never be satisfied);
-* ``during`` checks that already fail on the unperturbed starting state (the subgoal would halt at once);
+* ``during`` checks that already fail on the unperturbed starting state;
 * branches no input reaches (with their lines).
 
-Any of the first three raises :class:`CoverageError` (a :class:`~code_as_monitor.core.errors.ProgramError`)
+Either of the first two raises :class:`CoverageError` (a :class:`~code_as_monitor.core.errors.ProgramError`)
 whose message goes back to the coder for a bounded number of regenerations. Unreached branches alone
 do not: a defensive guard (``if pts.shape[0] < 3: return False, ...``) that no perturbation reaches is
 reported in :attr:`CoverageReport.unreached`, not rejected (unless ``require_full_coverage``).
+
+A ``during`` check that returns False on the starting state but True on some perturbation of it is a
+program that works, on a world that already violates its constraint (the paper regenerates code when
+testing finds an *error*; a violated constraint is not one). It is accepted and its verdict is kept in
+:attr:`CoverageReport.violated_at_start`, for the agent to raise as an alarm at once, so that the planner
+re-plans on the violation instead of the coder being asked for another program. A check that is False on
+every input can never be satisfied and is still rejected (a constant answer);
+``reject_failing_at_start=True`` restores the stricter rule that rejects the program.
 """
 
 from __future__ import annotations
@@ -23,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from code_as_monitor.core.constraints import Constraint, Phase
+from code_as_monitor.core.constraints import Constraint, Phase, Verdict
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.instrument import Branch, instrument
 from code_as_monitor.monitor.perturb import make_probes
@@ -51,6 +59,9 @@ class CoverageReport:
         faults: "check: reason (on input)" for every distinct exception / malformed result / overrun.
         unreached: the branches no input reached (in functions that were entered at least once).
         failing_at_start: "check: reason" of ``during`` checks already violated on the starting state.
+        violated_at_start: their verdicts on the starting state (constraint order): violations of the world
+            that the agent reports at once; they reject the program only with ``reject_failing_at_start``.
+        reject_failing_at_start: whether ``failing_at_start`` rejects the program (the stricter setting).
         outcomes: check function name -> (times it returned True, times False), faults not counted.
         constant: "check: ..." of checks that returned the same answer on every input.
     """
@@ -61,13 +72,15 @@ class CoverageReport:
     faults: list[str] = field(default_factory=list)
     unreached: list[Branch] = field(default_factory=list)
     failing_at_start: list[str] = field(default_factory=list)
+    violated_at_start: list[Verdict] = field(default_factory=list)
+    reject_failing_at_start: bool = False
     outcomes: dict[str, tuple[int, int]] = field(default_factory=dict)
     constant: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         """Nothing that rejects the program (unreached branches are only reported)."""
-        return not (self.faults or self.failing_at_start or self.constant)
+        return not (self.faults or self.constant or (self.reject_failing_at_start and self.failing_at_start))
 
     @property
     def fraction(self) -> float:
@@ -84,10 +97,14 @@ class CoverageReport:
             lines.append("checks whose answer never changes over the inputs (a condition that cannot fail, "
                          "or cannot hold):")
             lines += [f"  - {c}" for c in self.constant]
-        if self.failing_at_start:
+        if self.failing_at_start and self.reject_failing_at_start:
             lines.append("'during' checks that already fail on the starting state (the subgoal would stop at once):")
             lines += [f"  - {f}" for f in self.failing_at_start]
         head = "path coverage failed:" if lines else "path coverage passed"
+        if self.failing_at_start and not self.reject_failing_at_start:
+            lines.append("'during' checks already violated on the starting state (a violation of the world, "
+                         "reported as an alarm; not a reason to reject the program):")
+            lines += [f"  - {f}" for f in self.failing_at_start]
         if self.unreached:
             lines.append(f"branches no input reached ({len(self.covered)}/{len(self.branches)} covered over "
                          f"{self.n_inputs} inputs; reported, not a reason to reject by itself):")
@@ -132,6 +149,7 @@ def check_path_coverage(
     seed: int = 0,
     deadline_s: float | None = None,
     require_full_coverage: bool = False,
+    reject_failing_at_start: bool = False,
 ) -> CoverageReport:
     """Drive every branch of every check with the current state and perturbations of it.
 
@@ -151,11 +169,14 @@ def check_path_coverage(
             :data:`MIN_PROBE_DEADLINE_S` (coverage runs once per subgoal, not in the control loop, and
             instrumentation costs a little).
         require_full_coverage: True also rejects a program for unreached branches alone.
+        reject_failing_at_start: True also rejects a program whose ``during`` checks fail on the starting
+            state (by default they are accepted and listed in ``violated_at_start``).
     Returns:
-        The report, when nothing is wrong.
+        The report, when nothing is wrong (``violated_at_start``: the ``during`` verdicts that are False on
+        the starting state, for the caller to report as violations).
     Raises:
-        CoverageError: exceptions, malformed results, overruns, checks with a constant answer, or
-            ``during`` checks failing at the start (and unreached branches with
+        CoverageError: exceptions, malformed results, overruns, checks with a constant answer (and
+            ``during`` checks failing at the start with ``reject_failing_at_start``, unreached branches with
             ``require_full_coverage``); the message lists them with the inputs that caused them.
         ProgramError: the program does not pass static validation or does not load.
     """
@@ -171,7 +192,7 @@ def check_path_coverage(
             raise ProgramError(f"branch tables differ between control process ({len(branches)}) and worker "
                                f"({sandbox.n_branches})")
         deadline = deadline_s if deadline_s is not None else max(5 * sandbox.deadline_s, MIN_PROBE_DEADLINE_S)
-        report = CoverageReport(branches=branches)
+        report = CoverageReport(branches=branches, reject_failing_at_start=reject_failing_at_start)
         seen: set[tuple[str, str]] = set()
         overruns = 0
         outcomes = {c.id: (0, 0) for c in constraints}
@@ -200,6 +221,7 @@ def check_path_coverage(
                                          f"(input {k}: {probe.description})")
                 elif k == 0 and not v.fault and not v.ok and v.phase is Phase.DURING:
                     report.failing_at_start.append(f"check_{v.constraint_id}: returned False, {v.reason!r}")
+                    report.violated_at_start.append(v)
         if overruns >= MAX_OVERRUNS:
             report.faults.append(f"stopped after {overruns} overruns/crashes ({report.n_inputs} of {len(probes)} "
                                  "inputs tried); branch coverage not assessed")

@@ -4,6 +4,7 @@
 
     rt = MonitorRuntime()
     report = rt.start(source, constraints, elements, history, history_t, t)   # ProgramError -> regenerate
+    if report.violated_at_start: halt before starting, re-plan with their reasons
     while ...:
         verdicts = rt.step(elements, history, history_t, t)
         if during_violations(verdicts): halt, re-plan with the reasons
@@ -113,6 +114,9 @@ class MonitorRuntime:
         seed: seed of the perturbations.
         require_full_coverage: True rejects programs for unreached branches alone (by default they are
             reported in the coverage report and logged, not rejected).
+        reject_failing_at_start: True rejects programs whose ``during`` checks fail on the starting state (by
+            default the program is accepted and those verdicts are in the report's ``violated_at_start``: the
+            world violates the constraint, the program is not at fault).
         allow_unconfined: run generated code even where the kernel confinement cannot be installed (an
             explicit opt-out, see :class:`~code_as_monitor.monitor.sandbox.Sandbox`).
 
@@ -122,7 +126,7 @@ class MonitorRuntime:
 
     def __init__(self, sandbox: Sandbox | None = None, deadline_s: float = 0.020, memory_mb: int = 512,
                  n_perturbations: int = 96, seed: int = 0, require_full_coverage: bool = False,
-                 allow_unconfined: bool | None = None) -> None:
+                 allow_unconfined: bool | None = None, reject_failing_at_start: bool = False) -> None:
         self._own = sandbox is None
         # two spares: path coverage and the program itself each take a fresh worker at subgoal start
         self.sandbox = sandbox if sandbox is not None else Sandbox(
@@ -130,6 +134,7 @@ class MonitorRuntime:
         self.n_perturbations = n_perturbations
         self.seed = seed
         self.require_full_coverage = require_full_coverage
+        self.reject_failing_at_start = reject_failing_at_start
         self.constraints: list[Constraint] = []
         self.source: str | None = None
         self.report: CoverageReport | None = None
@@ -148,7 +153,8 @@ class MonitorRuntime:
             history_t: (T,) seconds, or None.
             t: current time, seconds.
         Returns:
-            The path-coverage report.
+            The path-coverage report; its ``violated_at_start`` are the ``during`` verdicts already False on
+            this state (a program that passes coverage but whose constraint the world violates now).
         Raises:
             ProgramError: rejected statically, by path coverage (a CoverageError) or at load; the
                 message is the feedback for regenerating the program. The previous program is dropped.
@@ -158,7 +164,8 @@ class MonitorRuntime:
         self.sandbox.start()
         report = check_path_coverage(source, constraints, elements, history, history_t, t, self.sandbox,
                                      n_perturbations=self.n_perturbations, seed=self.seed,
-                                     require_full_coverage=self.require_full_coverage)
+                                     require_full_coverage=self.require_full_coverage,
+                                     reject_failing_at_start=self.reject_failing_at_start)
         if report.unreached:
             log.info("monitor program accepted with %d unreached branch(es): %s", len(report.unreached),
                      "; ".join(b.describe() for b in report.unreached[:5]))

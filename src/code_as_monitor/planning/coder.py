@@ -218,7 +218,7 @@ class MonitorCoder:
         A re-ask carries the original request, the last answer and its error; when the model answers a re-ask
         with the program it was just told about and that program is rejected with the same error, the next
         re-ask would be word for word the request just answered, so it is not sent (the model stands by a
-        program that the current state rejects, e.g. a ``during`` check that already fails at the start).
+        program that the current state rejects, e.g. a check that path coverage finds can never hold).
 
         Raises:
             VLMOutputError: nothing acceptable after ``1 + max_retries`` calls (or fewer, as above).
