@@ -204,17 +204,14 @@ class DepthTrackerConfig(TrackerConfig):
             retrying after the hook found nothing).
         max_depth: metres; depth readings beyond this are invalid.
         min_points: fewest model points (after downsampling) a body needs to be tracked.
-        detect_points, detect_extent: a body whose model has fewer than ``detect_points`` points, or whose
-            largest principal extent is at most ``detect_extent`` metres, is too small to register
-            (too few points to pin a pose; the first ICP round's correspondence distance reaches across it to a
-            touching neighbour): when the tracker has a segmenter it is followed by detection instead
-            (:mod:`code_as_monitor.perception.trackers.depth_detect`). ``detect_points`` 0 and
-            ``detect_extent`` 0 register every body.
+        detect_points, detect_extent: a body whose model has fewer than ``detect_points`` points, or a largest
+            principal extent of at most ``detect_extent`` metres, is too small to register (too few points to
+            pin a pose; the first ICP round reaches across it to a touching neighbour): with a segmenter it is
+            tracked by detection (:mod:`.depth_detect`); both 0: every body is registered.
         detect_min_pixels: a detection (a mask in one view) needs at least this many valid depth pixels.
         detect_gate: a tracked small body takes a detection at most this many of its extents from its
-            predicted position (see depth_detect: identical solid neighbours are about one extent apart).
-        detect_reacquire_gate: a lost small body's gate grows by two extents per lost frame up to this many
-            (identical objects are anonymous: a detection no tracked body takes is one of the lost ones).
+            predicted position (identical solid neighbours are about one extent apart).
+        detect_reacquire_gate: a lost small body's gate grows by two extents per lost frame up to this many.
         detect_chroma: a small body takes no detection whose chromaticity ((R, G, B) / (R + G + B) of the mask)
             is further than this from its own when first detected (0 disables the test).
         detect_chain: a small body the tool's tip passed within half its extent plus this many extents of, or
