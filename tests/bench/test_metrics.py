@@ -175,3 +175,42 @@ def test_report_rules_table_puts_old_and_new_side_by_side():
     row = next(x for x in lines if x.startswith(f"| {cond.label} |"))
     assert "R 1/1 -> 0/1" in row and "FA 0.00 -> 1.00" in row
     assert rules_table({"conditions": [cond], "records": recs}, []) == []
+
+
+BLOCKS = [f"block_{i:02d}" for i in range(40)]
+
+
+def _sweep_gt(final: int) -> list[dict]:
+    """A sweep episode: 25 blocks inside at 5.2 s (band 16..24, over-swept), ``final`` inside at the end."""
+    inside = BLOCKS[:25]
+    return [{"t": 5.0, "kind": "zone_count", "obj": "zone", "count": 23},
+            {"t": 5.2, "kind": "zone_count", "obj": "zone", "count": 25},
+            {"t": 5.2, "kind": "over_swept", "obj": "zone", "count": 25, "band": [16, 24],
+             "objects": ["zone", *inside]},
+            {"t": 9.0, "kind": "zone_count", "obj": "zone", "count": final}]
+
+
+def test_an_alarm_about_the_zone_detects_the_over_sweep_and_one_about_another_object_does_not():
+    capped = {"t": 5.3, "proactive": False, "constraint_id": "capped_in_zone", "objects": [*BLOCKS, "zone"],
+              "reason": "25 blocks are inside the zone, more than 24"}
+    unrelated = {"t": 5.3, "proactive": False, "constraint_id": "attached_block_39", "objects": ["robot", "block_39"]}
+    fails = failures(_sweep_gt(final=26))
+    assert [(f["kind"], f["t"]) for f in fails] == [("over_swept", 5.2)]
+    assert match([capped], fails)[0] == [pytest.approx(0.1)]
+    assert match([unrelated], fails) == ([None], [False])  # block_39 is not in the zone: not this failure
+    # in a record: the capped alarm is a detection, not a false alarm; v1 (first round) had no sweep failure
+    new = detection([_rec(0, False, 5.3, alarms=[capped], gt=_sweep_gt(final=26))])
+    old = detection_v1([_rec(0, False, 5.3, alarms=[capped], gt=_sweep_gt(final=26))])
+    assert (new["failures"], new["detected"], new["unmatched_per_ep"]) == (1, 1, 0.0)
+    assert (old["failures"], old["unmatched_per_ep"]) == (0, 1.0)
+    other = detection([_rec(0, False, 5.3, alarms=[unrelated], gt=_sweep_gt(final=26))])
+    assert (other["failures"], other["detected"], other["unmatched_per_ep"]) == (1, 0, 1.0)
+
+
+def test_an_over_sweep_the_zone_recovers_from_is_benign_and_one_after_the_stop_is_not_counted():
+    gt = _sweep_gt(final=22)  # further strokes shoved blocks out of the far side: the episode ends in band
+    assert failures(gt) == [] and [e["kind"] for e in benign(gt)] == ["over_swept"]
+    capped = {"t": 5.3, "proactive": False, "objects": [*BLOCKS, "zone"]}
+    d = detection([_rec(0, True, 30.0, alarms=[capped], gt=gt)])
+    assert (d["failures"], d["benign_events"], d["unmatched_per_ep"]) == (0, 1, 0.0)
+    assert failures(_sweep_gt(final=26), t_stop=5.1) == []  # blocks in flight after the halt

@@ -14,19 +14,23 @@ the failures that matter: what would change the episode's outcome if nothing wer
 - **Failures** (:func:`failures`) are ground-truth events of the kinds in :data:`FAILURE_KINDS`: ``drop``
   (the suction let an object go), ``tower_collapsed`` (a stacked block fell off) and the gripper tasks'
   one-shot disturbances (:mod:`code_as_monitor.sim.triggered`: ``object_moved``, ``grasp_perturbed``,
-  ``object_knocked``, ``grasp_slipped``, ``pour_undone``) and the RLBench-style tasks' ``policy_failure`` (the
-  noisy policy's own first failed skill; its ``objects`` are the objects that skill acted on), except:
+  ``object_knocked``, ``grasp_slipped``, ``pour_undone``), the RLBench-style tasks' ``policy_failure`` (the
+  noisy policy's own first failed skill; its ``objects`` are the objects that skill acted on) and the sweep's
+  ``over_swept`` (the zone first held more blocks than the task's success band accepts; its ``objects`` are
+  the zone and the blocks inside then, :mod:`code_as_monitor.sim.tasks.sweep_half`), except:
 
   * a drop that does not change the outcome: the object came to rest on the target it was being carried to,
     within the task's placement tolerance (``block_fell.on_target``), or the suction took it again within the
-    same action (``regrasped``). These are logged, and alarms about them are neither credited nor false;
+    same action (``regrasped``). Likewise an over-sweep after which the zone's final count (the episode's last
+    ``zone_count``) is back inside the event's ``band``: no skill takes blocks out, but further strokes can
+    shove blocks out of the far side of a full zone. These are logged, and alarms about them are neither
+    credited nor false;
   * consequences, merged with their cause: ``block_fell`` belongs to its drop, and a ``tower_collapsed``
     between a drop and ``MERGE_S`` after the dropped object came to rest is the drop's doing (the falling
     block knocked the tower); collapses within ``MERGE_S`` of each other count once;
   * events after the method stopped (the record's ``sim_time_s``): nothing it could still have detected.
 
-  Sweep and rope have no discrete failure events (their failure is not stopping in time); their detection
-  cells stay empty.
+  The rope has no discrete failure event (its failure is not stopping in time); its detection cells stay empty.
 - **Matching**: a failure of object ``o`` at time ``t_e`` is *detected* by an alarm raised in
   ``[t_e - EARLY_S, t_e + WINDOW_S]`` (``EARLY_S`` = 0.25 s for the frame clock, ``WINDOW_S`` = 5 s) that
   concerns ``o``: ``o`` owns one of the alarmed constraint's elements (the alarm's ``objects``; records
@@ -45,8 +49,9 @@ the failures that matter: what would change the episode's outcome if nothing wer
   every task. **Lead time** = the rollout's first failure event (or the failed plan's end) - the alarm time
   (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to predict.
 
-:func:`detection_v1` keeps the first round's definitions (every drop and collapse a failure, any alarm in
-the window matches, events after the stop counted) so reports can show old and new figures side by side.
+:func:`detection_v1` keeps the first round's definitions (every drop and collapse a failure, no sweep failure,
+any alarm in the window matches, events after the stop counted) so reports can show old and new figures side by
+side.
 
 Open-loop raises no alarm; its detection cells are empty, not zero.
 """
@@ -60,7 +65,10 @@ from typing import Any
 import numpy as np
 
 FAILURE_KINDS = ("drop", "tower_collapsed", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped",
-                 "pour_undone", "policy_failure")
+                 "pour_undone", "policy_failure", "over_swept")
+V1_KINDS = tuple(k for k in FAILURE_KINDS if k != "over_swept")
+"""The failure kinds of :func:`detection_v1` (the over-sweep event came later; the first round had no sweep
+failures)."""
 EARLY_S = 0.25
 WINDOW_S = 5.0
 MERGE_S = 1.0
@@ -121,6 +129,20 @@ def _drop_resolution(gt: list[dict[str, Any]], drop: dict[str, Any]) -> dict[str
     return None
 
 
+def _harmless(gt: list[dict[str, Any]], e: dict[str, Any]) -> bool:
+    """Did event ``e`` (a failure kind) leave the outcome unchanged? A drop that landed on its target or was
+    regrasped; an over-sweep whose zone ends back in its ``band`` (the episode's last ``zone_count``)."""
+    if e["kind"] == "drop":
+        res = _drop_resolution(gt, e)
+        return res is not None and (res["kind"] == "regrasped" or bool(res.get("on_target")))
+    if e["kind"] == "over_swept" and e.get("band") is not None:
+        final = next((z for z in reversed(_by_time(gt)) if z["kind"] == "zone_count" and z.get("obj") == e.get("obj")),
+                     None)
+        lo, hi = e["band"]
+        return final is not None and final["t"] >= e["t"] and lo <= final["count"] <= hi
+    return False
+
+
 def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict[str, Any]]:
     """The failures of one episode that matter (see the module docstring), each with ``objects``: its own
     object plus those of the consequences merged into it.
@@ -135,10 +157,10 @@ def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict
         if e["kind"] not in FAILURE_KINDS or (t_stop is not None and e["t"] > t_stop + 1e-9):
             continue
         f = {**e, "objects": list(e.get("objects") or [e.get("obj", "")])}
+        if _harmless(gt, e):
+            continue
         if e["kind"] == "drop":
             res = _drop_resolution(gt, e)
-            if res is not None and (res["kind"] == "regrasped" or res.get("on_target")):
-                continue
             end = (res["t"] if res is not None else e["t"]) + MERGE_S
             windows.append((e["t"], end, f))
         elif e["kind"] == "tower_collapsed":
@@ -152,14 +174,10 @@ def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict
 
 
 def benign(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict[str, Any]]:
-    """Drops that did not change the outcome (landed on their target, or regrasped in the same action)."""
-    out = []
-    for e in _by_time(gt):
-        if e["kind"] == "drop" and (t_stop is None or e["t"] <= t_stop + 1e-9):
-            res = _drop_resolution(gt, e)
-            if res is not None and (res["kind"] == "regrasped" or res.get("on_target")):
-                out.append(e)
-    return out
+    """Failure-kind events that did not change the outcome (a drop that landed on its target or was regrasped in
+    the same action; an over-sweep whose zone ended back in band)."""
+    return [e for e in _by_time(gt) if e["kind"] in FAILURE_KINDS and (t_stop is None or e["t"] <= t_stop + 1e-9)
+            and _harmless(gt, e)]
 
 
 def concerns(alarm: dict[str, Any], obj: str) -> bool:
@@ -201,7 +219,7 @@ def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]],
 
 def _failures_v1(gt: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
-    for e in _by_time([e for e in gt if e["kind"] in FAILURE_KINDS]):
+    for e in _by_time([e for e in gt if e["kind"] in V1_KINDS]):
         if (e["kind"] == "tower_collapsed" and out and out[-1]["kind"] == "tower_collapsed"
                 and e["t"] - out[-1]["t"] <= MERGE_S):
             continue
@@ -242,7 +260,8 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
                     pro_ok += 1
                     if cf.get("lead_s") is not None:
                         leads.append(float(cf["lead_s"]))
-            about_benign = any(b["t"] - EARLY_S <= a["t"] <= b["t"] + WINDOW_S and concerns(a, b.get("obj", ""))
+            about_benign = any(b["t"] - EARLY_S <= a["t"] <= b["t"] + WINDOW_S
+                               and any(concerns(a, o) for o in (b.get("objects") or [b.get("obj", "")]))
                                for b in harmless)
             if not u and not (cf and cf.get("confirmed")) and not about_benign:
                 unmatched += 1
@@ -296,5 +315,5 @@ def cell_summary(records: list[dict[str, Any]], undisturbed: bool = False) -> di
     }
 
 
-__all__ = ["EARLY_S", "FAILURE_KINDS", "MERGE_S", "WINDOW_S", "benign", "cell_summary", "concerns", "cost",
+__all__ = ["EARLY_S", "FAILURE_KINDS", "MERGE_S", "V1_KINDS", "WINDOW_S", "benign", "cell_summary", "concerns", "cost",
            "detection", "detection_v1", "failures", "match", "mean_ci", "seed_level", "t_quantile"]

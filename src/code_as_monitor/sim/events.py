@@ -13,7 +13,9 @@ Kinds written by the simulator:
   rope's coverage of the square's opening crossed the success threshold, ``coverage``).
 - the policy's own mistakes (the RLBench-style tasks' noisy policy, :mod:`code_as_monitor.sim.tasks.rlbench_base`):
   ``policy_failure`` (``what``: ``grasp_missed``, ``wrong_target``, ``pull_short``, ``item_misplaced``,
-  ``screw_short``, ``turn_short``, ``cube_off_target``, ``dirt_left``; ``skill``), the episode's first failed skill.
+  ``screw_short``, ``turn_short``, ``cube_off_target``, ``dirt_left``; ``skill``), the episode's first failed skill;
+  ``over_swept`` (sweep-half: the zone first holds more blocks than the success band accepts; ``count``,
+  ``band`` = [min, max], ``objects`` = the zone and the blocks inside), once per episode.
 - robot: ``suction_on`` / ``suction_off`` (``obj`` = the attached/released object, ``""`` if none),
   ``action_start`` / ``action_done`` / ``action_halted`` (``skill``, ``args``).
 """

@@ -14,7 +14,19 @@ succeeds (the paper's CLIPort column: 0 %).
 
 Disturbances: none (the failure is the policy's own overshoot).
 Expected failure signal: the count of block points inside the zone surface exceeds half.
-Events: ``zone_count`` (``count``) each time the number of blocks inside changes.
+Events: ``zone_count`` (``count``) each time the number of blocks inside changes; ``over_swept`` once, the
+first time the zone holds more blocks than the success check accepts (``count`` > ``max_in_zone``; ``band`` =
+[``min_in_zone``, ``max_in_zone``]; ``obj`` = ``"zone"``, ``objects`` = the zone and the blocks inside then).
+
+Is an over-sweep final? No skill takes a block out of the zone: ``push_into_region`` only strokes blocks that
+are outside towards the zone, and the kb planner stops once the band is exceeded. But a stroke into a full
+zone shoves the pile, and blocks on its far side can leave the zone: the open-loop push keeps going after an
+over-sweep and the count drifts down as well as up. In the round-2 records (``results/published/
+cliport-round2.jsonl``, sweep-half) all 60 open-loop episodes exceeded 24 (peaks 32-38); by that drift 6 ended
+in band at the time limit and 3 below it. So the event is the failure "if nothing is done" (a halted arm leaves
+resting blocks where they are, and the policy's continuation fails 54 times in 60), and the metrics
+(:func:`code_as_monitor.bench.metrics.failures`) treat an over-sweep like a drop that landed on its target
+when the episode's final count is back in ``band``: logged, but it did not change the outcome.
 """
 
 from __future__ import annotations
@@ -32,10 +44,16 @@ from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 SMALL = 0.02
 
 
+def in_zone(xy: np.ndarray, center: np.ndarray, half: float) -> np.ndarray:
+    """(N,) bool: which points ``xy`` (N, 2) lie inside the axis-aligned square of ``half`` size around ``center``
+    (2,), table frame, metres (edges inclusive)."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    return np.all(np.abs(xy - np.asarray(center)[None]) <= half, axis=1)
+
+
 def count_in_zone(xy: np.ndarray, center: np.ndarray, half: float) -> int:
     """Number of points ``xy`` (N, 2) inside the axis-aligned square of ``half`` size around ``center`` (2,)."""
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    return int(np.sum(np.all(np.abs(xy - np.asarray(center)[None]) <= half, axis=1)))
+    return int(np.sum(in_zone(xy, center, half)))
 
 
 @TaskConfig.register("sweep-half")
@@ -85,6 +103,7 @@ class SweepHalf(Task):
         self.config: SweepHalfConfig = config
         self.names = [f"block_{i:02d}" for i in range(config.n_blocks)]
         self._count = -1
+        self._over_swept = False
 
     def load_scene(self, world) -> None:
         import pybullet as pb
@@ -128,6 +147,7 @@ class SweepHalf(Task):
             shade = rng.uniform(0.55, 0.95)
             pb.changeVisualShape(b, -1, rgbaColor=[shade, 0.35 * shade, 0.1, 1], physicsClientId=c)
         self._count = -1
+        self._over_swept = False
 
     # --- region interface used by the push skill -----------------------------------------------------------
     def _check_region(self, region: str) -> None:
@@ -157,20 +177,33 @@ class SweepHalf(Task):
             s_in = max(s_in, s1)
         return np.asarray(start, dtype=float) + s_in * np.asarray(d, dtype=float)
 
-    def count(self, world) -> int:
+    def inside(self, world) -> list[str]:
+        """Names of the blocks whose centre is inside the zone now (the success check's count)."""
         import pybullet as pb
 
         xy = np.array([pb.getBasePositionAndOrientation(world.body_of(n), physicsClientId=world.client)[0][:2]
                        for n in self.names])
-        return count_in_zone(xy, world.position("zone")[:2], self.config.zone_half)
+        mask = in_zone(xy, world.position("zone")[:2], self.config.zone_half)
+        return [n for n, m in zip(self.names, mask) if m]
+
+    def count(self, world) -> int:
+        return len(self.inside(world))
 
     def on_tick(self, world) -> None:
+        """Every second tick: ``zone_count`` when the count changed, and ``over_swept`` the first time it exceeds
+        the config's ``max_in_zone`` (the same bound :meth:`evaluate` uses)."""
         if world.ticks % 2:
             return
-        n = self.count(world)
+        blocks = self.inside(world)
+        n = len(blocks)
         if n != self._count:
             world.events.log(world.t, "zone_count", "zone", count=n)
             self._count = n
+        cfg = self.config
+        if n > cfg.max_in_zone and not self._over_swept:
+            world.events.log(world.t, "over_swept", "zone", count=n, band=[cfg.min_in_zone, cfg.max_in_zone],
+                             objects=["zone", *blocks])
+            self._over_swept = True
 
     def evaluate(self, world) -> TaskResult:
         n = self.count(world)
