@@ -78,7 +78,7 @@ class Coder:
 
 
 class Painter:
-    def paint(self, obs, subgoal):
+    def paint(self, obs, subgoal, known=None):
         specs = assign_element_ids(subgoal)
         els = [Element.point(i, s.name, np.zeros(3), (s.obj, s.part)) for i, s in specs.items()]
         return PaintResult(els, specs, {}, [], 0.0)

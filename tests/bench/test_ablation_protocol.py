@@ -6,7 +6,7 @@ import pytest
 
 from code_as_monitor.bench.commands import run_command
 from code_as_monitor.bench.protocol import ABLATION_METHODS, SUITE_DEFAULTS, SUITES, BenchSpec, ablation_of, is_cam
-from code_as_monitor.bench.report_ablation import ablation_rows
+from code_as_monitor.bench.report_ablation import ablation_markdown, ablation_rows
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -49,6 +49,14 @@ def test_rows_give_rates_per_setting_and_the_average_only_with_all_four() -> Non
     assert rows["cam-mv-off"]["avg"] is None and rows["cam-mv-off"]["cells"][1] is None
     assert [r["method"] for r in ablation_rows(recs, "slot-pen")] == ["cam"]
     assert ablation_rows(recs, "pour-tea") == []
+
+
+def test_the_paper_rows_name_the_papers_settings_not_ours() -> None:
+    text = ablation_markdown({"records": [_rec("book-none", "cam-cs-off", True)], "options": {}})
+    ours, paper = text.split("Paper, ablation table", 1)
+    assert "| CS off (ORB keypoints, k-means; not DINOv2) | 100 (1/1) |" in ours
+    assert "| CS off (DINOv2 points) | 50 | 40 | 40 | 40 | 42.5 |" in paper
+    assert "ORB" not in paper
 
 
 def test_a_closed_loop_episode_carries_its_setting_into_the_monitor_config() -> None:

@@ -90,3 +90,14 @@ def test_clouds_and_support_are_optional_kept_and_counted_only() -> None:
 def test_bad_clouds_are_named(field: str, value: np.ndarray, message: str) -> None:
     with pytest.raises(ElementError, match=message):
         Element.point(0, "p", [0.0, 0.0, 0.0], **{field: value})
+
+
+def test_support_records_what_the_robot_hid_and_a_carry_over() -> None:
+    from code_as_monitor.core.elements import ROBOT_HIDDEN_WEAK, ElementSupport
+
+    hidden = ElementSupport(300, 2, 0.001, robot_hidden=ROBOT_HIDDEN_WEAK + 0.1, carried=True)
+    assert hidden.weak() and not hidden.weak(max_robot_hidden=0.5)
+    assert not ElementSupport(300, 2, 0.001, robot_hidden=ROBOT_HIDDEN_WEAK).weak()
+    assert ElementSupport.from_dict(hidden.to_dict()) == ElementSupport(300, 2, 0.001, robot_hidden=0.4, carried=True)
+    old = {k: v for k, v in hidden.to_dict().items() if k not in ("robot_hidden", "carried")}  # records before them
+    assert ElementSupport.from_dict(old).robot_hidden == 0.0 and not ElementSupport.from_dict(old).carried

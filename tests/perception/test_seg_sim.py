@@ -66,3 +66,15 @@ def test_importing_perception_loads_no_backend_and_no_simulator():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == ""
+
+
+def test_sim_segmenter_robot_mask_is_the_robots_labels(view):
+    seg = make_segmenter(SegmenterConfig.from_name("sim"))
+    assert seg.robot_mask(view) is None  # no label is the robot's in this scene
+    labels = dict(view.seg_labels)
+    labels[10] = ("robot", "link5")  # say the block's side is an arm link
+    from dataclasses import replace
+
+    m = seg.robot_mask(replace(view, seg_labels=labels))
+    np.testing.assert_array_equal(m, view.seg == 10)
+    assert make_segmenter(SegmenterConfig.from_name("color")).robot_mask(view) is None

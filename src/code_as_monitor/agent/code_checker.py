@@ -60,9 +60,34 @@ class CodeChecker:
         self.on_prompt = on_prompt
         self._settling = False
         self._unwatched = False
+        self._known: dict = {}  # (object, part, kind) -> KnownElement: where the tracker last had each part
+        self._last: tuple | None = None  # (t, element id -> (k, 3) points, stale ids) of the last judged frame
+        self._elements: list[Element] = []
+        self._painted: Any = None
 
     def start_episode(self, obs: Observation) -> None:
+        self._known.clear()
+        self._last = None
+        self._elements = []
         return None
+
+    def _remember(self) -> None:
+        """Fold where the tracker last had the watched subgoal's elements into the remembered estimates (by object,
+        part and kind) that the painter may carry over when the robot hides a part (:mod:`~code_as_monitor.painter.
+        carry_over`); elements stale at that frame, and the robot's own, are not remembered. Not with a painter
+        that splits elements into points (CP off): its points share one key."""
+        last, self._last = self._last, None
+        if last is None or not getattr(self.painter, "connect_points", True):
+            return
+        from code_as_monitor.painter.carry_over import key_of, known_from
+
+        t, points, stale = last
+        specs = getattr(self._painted, "specs", {})
+        for e in self._elements:
+            spec, p = specs.get(e.id), points.get(e.id)
+            if spec is None or p is None or e.owner[0] == "robot" or e.id in stale:
+                continue
+            self._known[key_of(spec)] = known_from(e, p, t)
 
     def close(self) -> None:
         return None
@@ -81,7 +106,11 @@ class CodeChecker:
             self._period = 1.0 / self.cfg.frame_hz
             self._next_frame = obs.t + self._period
             return None
-        painted = self.painter.paint(obs, subgoal)
+        self._remember()
+        painted = self.painter.paint(obs, subgoal, known=self._known) if self._known \
+            else self.painter.paint(obs, subgoal)
+        for d in getattr(painted, "carried", ()):
+            ctx.emit("element_carry", t=obs.t, **d.to_dict())
         for m in painted.missing:
             ctx.emit("element_missing", t=obs.t, spec=m.to_dict())
         ctx.emit("elements", t=obs.t, legend=painted.legend(), seconds=painted.seconds)
@@ -90,6 +119,7 @@ class CodeChecker:
             return SubgoalEnd("error", f"cannot see {names}")
         elements = painted.elements
         positions = {e.id: e.points for e in elements}
+        self._last = (obs.t, positions, set())
         history = self.history_factory(self.cfg.history_len)
         history.push(obs.t, positions)
 
@@ -209,6 +239,7 @@ class CodeChecker:
         when a check's state (ok / violated / fault) changes, not every frame."""
         tr = self.tracker.step(obs)
         self._history.push(obs.t, tr.points)
+        self._last = (obs.t, dict(tr.points), {i for i, st in tr.stale.items() if np.any(st)})
         H, ht = self._history.arrays()
         verdicts = self.runtime.step(tr.points, H, ht, obs.t)
         for v in verdicts:
@@ -251,6 +282,7 @@ class CodeChecker:
         self._history.push(obs.t, points)
         H, ht = self._history.arrays()
         stale_ids = {i for i, st in stale.items() if np.any(st)}
+        self._last = (obs.t, dict(points), stale_ids)
         verdicts = [
             v for v in self.runtime.step(points, H, ht, obs.t)
             if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)

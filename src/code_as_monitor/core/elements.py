@@ -80,6 +80,11 @@ MAX_CLOUD_POINTS = 2000
 """The most points an element's ``cloud`` / ``object_cloud`` carries (the painter voxel-downsamples to it)."""
 
 
+ROBOT_HIDDEN_WEAK = 0.3
+"""An element whose box the robot hides over more than this fraction of its pixels (all views together) was painted
+mostly through the robot: weak (:meth:`ElementSupport.weak`), and the painter may carry an earlier estimate over."""
+
+
 @dataclass(frozen=True)
 class ElementSupport:
     """How well the observations supported an element: what checks and the agent read to tell a weak one.
@@ -94,6 +99,11 @@ class ElementSupport:
         assumed: how many sides of the part's box no view bounded: their depth is an assumption (the part's
             largest observed extent), not a measurement (a block under another one seen from the front only).
         part_seen: False when no view saw the element's part and the whole object's masks stood in for it.
+        robot_hidden: fraction (0..1) of the pixels the part's box covers in the views where the robot's own body
+            is in front of it (0 when the segmenter cannot tell the robot): an element painted mostly through the
+            robot (over :data:`ROBOT_HIDDEN_WEAK`) is weak, however many points it has.
+        carried: True when the element is not this paint's measurement but an earlier estimate of the same part,
+            carried over because the robot hid the part and nothing in the views contradicted the estimate.
     """
 
     points: int
@@ -103,23 +113,30 @@ class ElementSupport:
     extent: tuple[float, float, float] = (0.0, 0.0, 0.0)
     assumed: int = 0
     part_seen: bool = True
+    robot_hidden: float = 0.0
+    carried: bool = False
 
     def to_dict(self) -> dict:
         return {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
                 "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent],
-                "assumed": self.assumed, "part_seen": self.part_seen}
+                "assumed": self.assumed, "part_seen": self.part_seen, "robot_hidden": round(self.robot_hidden, 3),
+                "carried": self.carried}
 
     @classmethod
     def from_dict(cls, d: dict) -> ElementSupport:
         ext = tuple(float(x) for x in d.get("extent", (0.0, 0.0, 0.0)))
         return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
-                   (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)))
+                   (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)),
+                   float(d.get("robot_hidden", 0.0)), bool(d.get("carried", False)))
 
-    def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004) -> bool:
+    def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004,
+             max_robot_hidden: float | None = None) -> bool:
         """True when fewer than ``min_points`` points or ``min_views`` views supported the element, its fit
-        residual exceeds ``max_residual`` metres, a side of its box was assumed, or its part was not seen."""
+        residual exceeds ``max_residual`` metres, a side of its box was assumed, its part was not seen, or the robot
+        hid more than ``max_robot_hidden`` (default :data:`ROBOT_HIDDEN_WEAK`) of it."""
+        limit = ROBOT_HIDDEN_WEAK if max_robot_hidden is None else max_robot_hidden
         return (self.points < min_points or self.views < min_views or self.residual > max_residual
-                or self.assumed > 0 or not self.part_seen)
+                or self.assumed > 0 or not self.part_seen or self.robot_hidden > limit)
 
 
 @dataclass

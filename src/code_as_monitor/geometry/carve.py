@@ -46,12 +46,15 @@ hidden from every view, and the part is then taken to be as deep as the smaller 
 @dataclass(frozen=True)
 class CarveView:
     """One view for carving: ``mask`` (H, W) bool of the part, ``depth`` (H, W) metres, ``camera``, and
-    optionally ``siblings`` (H, W) bool, the same object's other parts (a part never grows behind them)."""
+    optionally ``siblings`` (H, W) bool, the same object's other parts (a part never grows behind them), and
+    ``robot`` (H, W) bool, the robot's own pixels (carving ignores it; it measures how much of the part the robot
+    hides: :func:`~.occlusion.robot_hidden_fraction`)."""
 
     mask: np.ndarray
     depth: np.ndarray
     camera: CameraModel
     siblings: np.ndarray | None = None
+    robot: np.ndarray | None = None
 
 
 _UNIT_GRIDS: dict[int, np.ndarray] = {}

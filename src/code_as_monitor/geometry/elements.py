@@ -22,7 +22,8 @@ Without views (:func:`fit_element_points`), step 2 keeps the observed box.
 
 Every element built from masks carries its cloud (capped at ``MAX_CLOUD_POINTS``) and an
 :class:`~code_as_monitor.core.elements.ElementSupport` (points, views, the box residual, extents, assumed
-sides). End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
+sides, and the fraction of its box the robot hides when the views carry robot masks: :mod:`~.occlusion`).
+End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from code_as_monitor.core.errors import ElementError, GeometryError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
 from code_as_monitor.geometry.carve import CarveView, carve
 from code_as_monitor.geometry.fusion import voxel_downsample
+from code_as_monitor.geometry.occlusion import OccluderView, robot_hidden_fraction
 from code_as_monitor.geometry.part_cloud import (
     MIN_FINE_VOXEL,
     Observation3D,
@@ -216,10 +218,17 @@ def build_element_from_clouds(
     except ElementError as exc:
         raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): {exc}") from None
     ext = np.sort(box.extent)[::-1]
+    hidden = robot_hidden_fraction(box, [OccluderView(v.depth, v.camera, v.robot, _own(v)) for v in views]) \
+        if any(v.robot is not None for v in views) else 0.0
     sup = ElementSupport(len(Q), int(nviews), box.residual(Q), float(ext[0] / 2.0),
-                         (float(ext[0]), float(ext[1]), float(ext[2])), int(box.hidden.sum()))
+                         (float(ext[0]), float(ext[1]), float(ext[2])), int(box.hidden.sum()), robot_hidden=hidden)
     return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id),
                    cloud=cap_cloud(Q, MAX_CLOUD_POINTS, vs), support=sup)
+
+
+def _own(view: CarveView) -> np.ndarray:
+    """(H, W) bool: the part's object in ``view`` (its mask and its sibling parts)."""
+    return view.mask if view.siblings is None else view.mask | view.siblings
 
 
 def ee_element(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,7 @@ from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
 from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
+from code_as_monitor.painter.carry_over import CarryDecision, Key, KnownElement, candidate, carry_over, key_of
 from code_as_monitor.painter.draw import draw_elements
 from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
 from code_as_monitor.painter.sources import ORB_KEYPOINTS, PART_MASKS, check_element_source
@@ -30,6 +32,10 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ROBOT = "robot"
+HELD_RADIUS = 0.015
+"""Metres: with the gripper closed, an object with a point this near the tool tip is held (it hides as the robot)."""
+HELD_SIZE = 0.3
+"""Metres: a held object lies within this of the tip (95 % of its points): the table the tip touches is not held."""
 
 
 @dataclass
@@ -42,6 +48,8 @@ class PaintResult:
         images: view name -> annotated RGB (H, W, 3) uint8: the visual prompt.
         missing: specs that no view could see (the caller decides: re-plan or fail).
         seconds: wall time spent.
+        carried: the carry-over decisions (:mod:`~code_as_monitor.painter.carry_over`) for the elements the robot
+            hid and that had a remembered estimate: which were carried, which kept their fresh measurement, why.
     """
 
     elements: list[Element]
@@ -49,6 +57,7 @@ class PaintResult:
     images: dict[str, np.ndarray]
     missing: list[ElementSpec] = field(default_factory=list)
     seconds: float = 0.0
+    carried: list[CarryDecision] = field(default_factory=list)
 
     def legend(self) -> list[dict]:
         """One entry per element: id, kind, name, owner (what the coder prompt lists)."""
@@ -157,9 +166,62 @@ class Painter:
             return out
         per_view = self._segment_and_lift(obs, [s for _, s in masked], [texts.get(e, "") for e, _ in masked])
         support = self._support(obs) if per_view else None
+        robots = self._robot_masks(obs, per_view)
         for j, (eid, spec) in enumerate(masked):
-            out[eid] = self._fit(eid, spec, [(v, lifted, res[j]) for v, lifted, res in per_view], support)
+            out[eid] = self._fit(eid, spec, [(v, lifted, res[j]) for v, lifted, res in per_view], support, robots)
         return out
+
+    def _robot_masks(self, obs: Observation, per_view: list[tuple]) -> list[np.ndarray | None]:
+        """Per usable view: the robot's pixels and those of what it holds (:meth:`_held`), or None where the segmenter
+        cannot tell the robot."""
+        robots = [self._robot_mask(v) for v, _, _ in per_view]
+        if any(r is not None for r in robots):
+            for name in self._held(obs, per_view):
+                for i, (v, _, _) in enumerate(per_view):
+                    r = robots[i]
+                    if r is not None:
+                        robots[i] = r | np.asarray(self.segmenter.segment(v, ElementSpec(name, name)).instance_mask,
+                                                   dtype=bool)
+        return robots
+
+    def _held(self, obs: Observation, per_view: list[tuple]) -> list[str]:
+        """The objects the robot holds: with its gripper closed (or suction on), those with a lifted mask point within
+        :data:`HELD_RADIUS` of its tip and nearly all within :data:`HELD_SIZE`. They move with the robot and hide parts
+        as it does."""
+        robot = obs.robot
+        if robot is None or robot.gripper < 0.5 or not obs.objects:
+            return []
+        tip = np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=np.float64).reshape(3)
+        held = []
+        for name in obs.objects:
+            if name == ROBOT:
+                continue
+            try:
+                clouds = [lifted.points(self.segmenter.segment(v, ElementSpec(name, name)).instance_mask)
+                          for v, lifted, _ in per_view]
+            except CamError:
+                continue
+            P = np.vstack([c for c in clouds if len(c)] or [np.empty((0, 3))])
+            d = np.linalg.norm(P - tip, axis=1)
+            if len(P) and float(d.min()) <= HELD_RADIUS and float(np.percentile(d, 95)) <= HELD_SIZE:
+                held.append(name)
+        return held
+
+    def _robot_mask(self, view: object) -> np.ndarray | None:
+        """The robot's own pixels in ``view`` from the segmenter (None when it cannot tell the robot, or its mask
+        does not match the view)."""
+        fn = getattr(self.segmenter, "robot_mask", None)
+        if fn is None:
+            return None
+        try:
+            m = fn(view)
+        except CamError as exc:
+            log.info("no robot mask for view %r: %s", getattr(getattr(view, "camera", None), "name", "?"), exc)
+            return None
+        if m is None:
+            return None
+        m = np.asarray(m, dtype=bool)
+        return m if m.shape == np.shape(getattr(view, "depth", None)) else None
 
     def _segment_and_lift(self, obs: Observation, specs: list[ElementSpec], texts: list[str]) -> list[tuple]:
         """Per usable view: (view, LiftedView, [SegmentResult per spec])."""
@@ -180,8 +242,9 @@ class Painter:
             out.append((view, lifted, res))
         return out
 
-    def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None) -> Element | None:
-        """One element from its per-view (view, LiftedView, SegmentResult)."""
+    def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None,
+             robots: list[np.ndarray | None] | None = None) -> Element | None:
+        """One element from its per-view (view, LiftedView, SegmentResult) and the robot's mask per view (or None)."""
         from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
         from code_as_monitor.geometry.carve import CarveView
         from code_as_monitor.geometry.part_cloud import fuse_part
@@ -195,13 +258,14 @@ class Painter:
         # object in a view that sees the part too small would pull the element off the part.
         part_seen = bool(spec.part) and any(pc >= self.min_pixels for pc, _ in counts)
         clouds, carve_views = [], []
-        for (view, lifted, res), (pc, ic) in zip(views, counts):
+        robots = robots if robots is not None else [None] * len(views)
+        for (view, lifted, res), (pc, ic), robot in zip(views, counts, robots):
             mask = res.part_mask if part_seen or pc >= self.min_pixels else res.instance_mask
             if (pc if mask is res.part_mask else ic) < self.min_pixels:
                 mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
             clouds.append(lifted.points(mask))
             siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
-            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings))
+            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings, robot))
         if not any(len(c) for c in clouds):
             return None
         try:
@@ -223,8 +287,14 @@ class Painter:
                 el.object_cloud = None
         return el
 
-    def paint(self, obs: Observation, subgoal: Subgoal) -> PaintResult:
-        """Build every element of ``subgoal`` from ``obs`` (one pass over each view) and draw the visual prompt."""
+    def paint(self, obs: Observation, subgoal: Subgoal,
+              known: Mapping[Key, KnownElement] | None = None) -> PaintResult:
+        """Build every element of ``subgoal`` from ``obs`` (one pass over each view) and draw the visual prompt.
+
+        ``known``: remembered estimates by ``(object, part, kind)`` (where the agent's tracker last had them); an
+        element the robot hides is taken from one when it rests on more evidence and nothing contradicts it
+        (:mod:`~code_as_monitor.painter.carry_over`). None or empty: every element is this observation's own.
+        """
         t0 = time.perf_counter()
         specs = assign_element_ids(subgoal)
         text_of: dict[int, str] = {}
@@ -232,6 +302,12 @@ class Painter:
             for i in c.element_ids:
                 text_of.setdefault(i, c.text)
         built = self.build_elements(obs, specs, text_of)
+        decisions: list[CarryDecision] = []
+        if known:
+            cands = {i: s for i, s in specs.items() if s.obj != ROBOT and key_of(s) in known and candidate(built[i])}
+            if cands:
+                figures = self._contradiction(obs, cands, built, known)
+                built, decisions = carry_over(built, specs, known, figures)
         elements = [el for el in built.values() if el is not None]
         missing = [specs[i] for i, el in built.items() if el is None]
         elements.sort(key=lambda e: e.id)
@@ -239,7 +315,28 @@ class Painter:
         if not self.connect_points:
             elements, specs, self._split = split_into_points(elements, specs, subgoal)
         images = self.draw(obs, elements)
-        return PaintResult(elements, specs, images, missing, time.perf_counter() - t0)
+        return PaintResult(elements, specs, images, missing, time.perf_counter() - t0, decisions)
+
+    def _contradiction(self, obs: Observation, cands: dict[int, ElementSpec], built: dict[int, Element | None],
+                       known: Mapping[Key, KnownElement]) -> dict[int, tuple[float, float, float]]:
+        """Per candidate id: (seen-through fraction, visible-outside fraction, robot-hidden fraction of the remembered
+        cloud) of its remembered estimate against ``obs`` (:mod:`~code_as_monitor.geometry.occlusion`)."""
+        from code_as_monitor.geometry.occlusion import OccluderView, contradiction, robot_hidden_points
+
+        ids = list(cands)
+        per_view = self._segment_and_lift(obs, [cands[i] for i in ids], [""] * len(ids))
+        robots = self._robot_masks(obs, per_view)
+        out = {}
+        for j, eid in enumerate(ids):
+            k = known[key_of(cands[eid])]
+            views = [OccluderView(v.depth, v.camera, r, np.asarray(res[j].instance_mask, dtype=bool))
+                     for (v, _, res), r in zip(per_view, robots)]
+            cloud = k.cloud if k.cloud is not None and len(k.cloud) else k.points
+            fresh = built.get(eid)
+            visible = fresh.cloud if fresh is not None and fresh.cloud is not None else np.empty((0, 3))
+            seen, outside = contradiction(cloud, k.points.mean(axis=0), visible, views)
+            out[eid] = (seen, outside, robot_hidden_points(cloud, views))
+        return out
 
     @staticmethod
     def draw(

@@ -85,6 +85,13 @@ class Segmenter(ABC):
         texts = constraint_texts or [""] * len(specs)
         return [self.segment(view, s, t) for s, t in zip(specs, texts)]
 
+    def robot_mask(self, view: View) -> np.ndarray | None:
+        """(H, W) bool: the robot's own pixels in ``view`` (arm links and end effector), or None when this backend
+        cannot tell (the default). The painter uses it to tell a part the robot hides from one that is absent;
+        a real system gets it from a segmenter that knows the robot, or by rendering the robot's model at its
+        joint state."""
+        return None
+
 
 # --- backend configs -----------------------------------------------------------------------------
 

@@ -14,6 +14,9 @@ from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import View
 from code_as_monitor.perception.segmenters.base import Segmenter, SegmentResult, SimSegmenterConfig
 
+ROBOT = "robot"
+"""The object name the id image's labels give the robot's links (``("robot", link name)``)."""
+
 
 class SimSegmenter(Segmenter):
     """Exact masks from ``View.seg``; score 1 when visible, 0 when not."""
@@ -42,6 +45,14 @@ class SimSegmenter(Segmenter):
             part = inst.copy() if part_ids is obj_ids else _union_mask(view.seg, part_ids)
             out.append(SegmentResult(inst, part, spec.kind, 1.0 if part.any() else 0.0))
         return out
+
+    def robot_mask(self, view: View) -> np.ndarray | None:
+        """(H, W) bool: the pixels labelled ``("robot", link)`` in the id image; None without an id image or when
+        no label is the robot's."""
+        if view.seg is None or view.seg_labels is None:
+            return None
+        ids = [i for i, (o, _) in view.seg_labels.items() if o == ROBOT]
+        return _union_mask(view.seg, ids) if ids else None
 
     @staticmethod
     def _ids(labels: dict[int, tuple[str, str]], spec: ElementSpec) -> tuple[list[int], list[int]]:

@@ -1,0 +1,165 @@
+"""The robot as an occluder: how much of a part the robot's own body hides, and whether a remembered estimate of
+a part still agrees with what the views show.
+
+A robot's arm between a part and the cameras is common (an arm that has just lifted a block above a tower, a
+hand over a drawer). The painter's box fit (:mod:`~.solid`, :mod:`~.carve`) then rests on the few pixels the arm
+leaves, and its hidden sides are carved through the space the arm hides: the element can be centimetres off
+while looking well supported. Two measures here let the painter tell such an element and do better:
+
+- :func:`robot_hidden_fraction`: of the pixels the part's (carved) box covers in the views, the fraction where the
+  robot (its mask, from a segmenter that knows the robot or a rendering of its model at its joint state) is in
+  front of it. An element over :data:`ROBOT_HIDDEN_WEAK` was painted mostly through the robot.
+- :func:`robot_hidden_points`: the same for a cloud (a remembered estimate of a part no view sees now).
+- :func:`contradiction`: how much a remembered estimate of the part (its cloud where it is believed to be now) is
+  contradicted by the current views: its points where a view sees *past* them (a depth reading further than the
+  point, on a pixel that is not the part's own), and the part's currently visible points that lie outside the
+  remembered solid. An object that moved leaves its old place seen through, or shows where it was not.
+
+World frame, metres; images (H, W); cameras :class:`~code_as_monitor.core.camera.CameraModel`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from code_as_monitor.core.camera import CameraModel
+from code_as_monitor.core.elements import ROBOT_HIDDEN_WEAK
+from code_as_monitor.geometry.solid import Box
+
+SEEN_THROUGH_TOL = 0.01
+"""Metres: a view sees past a point when its depth reading is at least this much further than the point."""
+OUTSIDE_TOL = 0.005
+"""Metres: a visible point lies outside a remembered solid when it is further than this outside its bounds."""
+
+
+@dataclass(frozen=True)
+class OccluderView:
+    """One view for occlusion measures: ``depth`` (H, W) metres, ``camera``, ``robot`` (H, W) bool the robot's own
+    pixels (None: this view cannot tell the robot), ``own`` (H, W) bool the part's (or its object's) pixels."""
+
+    depth: np.ndarray
+    camera: CameraModel
+    robot: np.ndarray | None = None
+    own: np.ndarray | None = None
+
+
+def box_corners(box: Box) -> np.ndarray:
+    """(8, 3) world corners of ``box``."""
+    lo, hi = box.lo, box.hi
+    c = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return c @ box.axes
+
+
+def _footprint(corners: np.ndarray, camera: CameraModel, shape: tuple[int, int]) -> tuple[np.ndarray, float] | None:
+    """(pixel rows, cols) of the convex hull of ``corners`` (8, 3) projected into ``camera`` and the farthest
+    corner's depth; None when a corner is behind the camera or the hull misses the image."""
+    import cv2
+
+    uv, z = camera.project(corners)
+    if not np.all(z > 1e-6) or not np.all(np.isfinite(uv)):
+        return None
+    H, W = shape
+    lo, hi = np.floor(uv.min(axis=0)).astype(int), np.ceil(uv.max(axis=0)).astype(int)
+    if hi[0] < 0 or hi[1] < 0 or lo[0] >= W or lo[1] >= H or (hi - lo).max() > 4 * max(H, W):
+        return None
+    img = np.zeros((H, W), dtype=np.uint8)
+    hull = cv2.convexHull(np.rint(uv).astype(np.int32))
+    cv2.fillConvexPoly(img, hull, 1)
+    rows, cols = np.nonzero(img)
+    return (rows, cols), float(z.max())
+
+
+def robot_hidden_fraction(box: Box, views: Sequence[OccluderView]) -> float:
+    """Fraction (0..1) of the pixels ``box`` covers in the views (its projected outline, summed over the views that
+    have a robot mask) where the robot is in front of it: a robot pixel (not one of ``own``) whose depth is nearer
+    than the box's far side. 0 when no view has a robot mask or the box projects into none of them."""
+    corners = box_corners(box)
+    covered = total = 0
+    for v in views:
+        if v.robot is None:
+            continue
+        fp = _footprint(corners, v.camera, v.robot.shape)
+        if fp is None:
+            continue
+        (r, c), zfar = fp
+        if len(r) == 0:
+            continue
+        d = np.asarray(v.depth, dtype=np.float64)[r, c]
+        front = v.robot[r, c] & np.isfinite(d) & (d > 0) & (d < zfar)
+        if v.own is not None:
+            front &= ~v.own[r, c]
+        covered += int(front.sum())
+        total += len(r)
+    return covered / total if total else 0.0
+
+
+def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> float:
+    """Fraction (0..1) of the in-image projections of ``points`` (N, 3), over the views that have a robot mask, that
+    fall on a robot pixel nearer than the point: how much of a remembered part the robot hides now."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    hid = n = 0
+    for v in views:
+        if v.robot is None or not len(P):
+            continue
+        ui, vi, z = _pixels(P, v)
+        if not len(ui):
+            continue
+        d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
+        hid += int((v.robot[vi, ui] & np.isfinite(d) & (d > 0) & (d < z)).sum())
+        n += len(ui)
+    return hid / n if n else 0.0
+
+
+def _pixels(P: np.ndarray, v: OccluderView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cols, rows, depths along the axis) of the points of ``P`` (N, 3) that project into ``v``'s image."""
+    uv, z = v.camera.project(P)
+    H, W = v.depth.shape
+    u, w = np.rint(uv[:, 0]), np.rint(uv[:, 1])
+    ok = (z > 1e-6) & np.isfinite(u) & np.isfinite(w) & (u >= 0) & (u < W) & (w >= 0) & (w < H)
+    return u[ok].astype(np.int64), w[ok].astype(np.int64), z[ok]
+
+
+def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
+                  views: Sequence[OccluderView]) -> tuple[float, float]:
+    """How much the views contradict a remembered estimate of a part.
+
+    Args:
+        cloud: (M, 3) the part's remembered points (its visible skin when it was painted), moved to where the part
+            is believed to be now.
+        centre: (3,) its remembered centre there; the remembered solid is the cloud and its reflection through the
+            centre (a block's hidden faces mirror its seen ones), as an axis-aligned extent.
+        visible: (N, 3) the part's points the views show now (may be empty).
+        views: the current views, with ``own`` the part's (or its object's) mask.
+    Returns:
+        (seen_through, outside): the fraction of the cloud's in-image projections, over views, where the depth reads
+        at least :data:`SEEN_THROUGH_TOL` past the point on a pixel not the part's own; the fraction of ``visible``
+        further than :data:`OUTSIDE_TOL` outside the remembered solid (0 when nothing is visible).
+    """
+    P = np.asarray(cloud, dtype=np.float64).reshape(-1, 3)
+    c = np.asarray(centre, dtype=np.float64).reshape(3)
+    seen = n = 0
+    for v in views:
+        ui, vi, z = _pixels(P, v)
+        if not len(ui):
+            continue
+        d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
+        past = np.isfinite(d) & (d > z + SEEN_THROUGH_TOL)
+        if v.own is not None:
+            past &= ~v.own[vi, ui]
+        seen += int(past.sum())
+        n += len(ui)
+    V = np.asarray(visible, dtype=np.float64).reshape(-1, 3)
+    outside = 0.0
+    if len(V) and len(P):
+        S = np.vstack([P, 2.0 * c - P])
+        lo, hi = S.min(axis=0) - OUTSIDE_TOL, S.max(axis=0) + OUTSIDE_TOL
+        out_of = np.any(np.less(V, lo) | np.greater(V, hi), axis=1)
+        outside = float(np.mean(out_of))
+    return (seen / n if n else 0.0), outside
+
+
+__all__ = ["OUTSIDE_TOL", "ROBOT_HIDDEN_WEAK", "SEEN_THROUGH_TOL", "OccluderView", "box_corners", "contradiction",
+           "robot_hidden_fraction", "robot_hidden_points"]

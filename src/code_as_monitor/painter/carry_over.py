@@ -1,0 +1,166 @@
+"""Carry-over: an element the robot hides at a subgoal's start is taken from an earlier estimate of the same part,
+when that estimate had more unhidden evidence and nothing in the views contradicts it.
+
+At a subgoal's start the arm is often where the last skill left it: over the tower it just took a block from, or
+holding the block above the next target. A part it hides is painted from the few pixels it leaves, and the
+element can be centimetres off (:mod:`code_as_monitor.geometry.occlusion`). The agent remembers, per
+``(object, part, kind)``, where its tracker last had each element (:class:`KnownElement`: the points, the cloud
+moved with them, the support of the measurement they came from). :func:`carry_over` replaces a freshly painted
+element by the remembered one when all of these hold:
+
+1. the robot is involved: the fresh element's box is hidden by the robot over at least :data:`ROBOT_INVOLVED` of its
+   pixels and the fresh element is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), or no view
+   sees the part and the robot hides at least :data:`~code_as_monitor.core.elements.ROBOT_HIDDEN_WEAK` of the
+   remembered cloud's projections;
+2. the remembered estimate rests on more evidence: its points not hidden by the robot
+   (``points x (1 - robot_hidden)``, :func:`evidence`) outnumber the fresh element's;
+3. nothing contradicts it now (:func:`~code_as_monitor.geometry.occlusion.contradiction`): at most
+   :data:`MAX_SEEN_THROUGH` of its cloud's projections are seen through (a view reads past where it would be) and
+   at most :data:`MAX_OUTSIDE` of the part's visible points lie outside it.
+
+Otherwise the fresh element stays (today's painting), its weakness in its support. With no robot mask (a segmenter
+that cannot tell the robot) or nothing hidden, nothing is carried. Every decision is returned for the event log.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from code_as_monitor.core.elements import ROBOT_HIDDEN_WEAK, Element, ElementSpec, ElementSupport, color_for
+
+ROBOT_INVOLVED = 0.1
+"""The fresh element's box must be hidden by the robot over at least this fraction for a carry-over to be tried (a
+weak element the robot does not hide is weak for another reason: nothing remembered can fix that)."""
+MAX_SEEN_THROUGH = 0.2
+"""A remembered estimate is contradicted when the views see past more than this fraction of its cloud."""
+MAX_OUTSIDE = 0.2
+"""A remembered estimate is contradicted when more than this fraction of the part's visible points lie outside it."""
+
+Key = tuple[str, str, str]
+"""``(object, part, kind)``: what a remembered estimate is of."""
+
+
+@dataclass(frozen=True)
+class KnownElement:
+    """An earlier estimate of one part, where the tracker last had it.
+
+    Attributes:
+        t: seconds, when the tracker last had it.
+        points: (k, 3) world metres, the element's points then.
+        cloud: (M, 3) world metres, the element's cloud moved with its points (None: none was painted).
+        support: the support of the measurement the points came from (a carried element keeps its origin's).
+    """
+
+    t: float
+    points: np.ndarray
+    cloud: np.ndarray | None
+    support: ElementSupport | None
+
+
+def key_of(spec: ElementSpec) -> Key:
+    """The remembered-estimate key of ``spec``."""
+    return (spec.obj, spec.part, spec.kind.value)
+
+
+def known_from(el: Element, points: np.ndarray, t: float) -> KnownElement:
+    """What to remember of painted element ``el`` whose tracker last had it at ``points`` (k, 3) at time ``t``: its
+    cloud moves by the points' mean displacement since painting."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    cloud = None
+    if el.cloud is not None and P.shape == el.points.shape and np.all(np.isfinite(P)):
+        cloud = el.cloud + (P.mean(axis=0) - el.points.mean(axis=0))
+    return KnownElement(float(t), P.copy(), cloud, el.support)
+
+
+def evidence(support: ElementSupport | None) -> float:
+    """The points an estimate rests on that the robot did not hide: ``points x (1 - robot_hidden)`` (0 without a
+    support)."""
+    if support is None:
+        return 0.0
+    return float(support.points) * (1.0 - float(support.robot_hidden))
+
+
+@dataclass
+class CarryDecision:
+    """One carry-over decision for the event log: element ``id``/``name``, whether it was ``carried``, why
+    (``reason``), and the figures it rests on."""
+
+    id: int
+    name: str
+    carried: bool
+    reason: str
+    figures: dict
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "name": self.name, "carried": self.carried, "reason": self.reason, **self.figures}
+
+
+def candidate(fresh: Element | None) -> bool:
+    """Whether a carry-over may be tried for ``fresh`` (condition 1 of the module docstring, for a painted one;
+    a missing one is decided on the remembered cloud)."""
+    if fresh is None:
+        return True
+    sup = fresh.support
+    return sup is not None and sup.robot_hidden >= ROBOT_INVOLVED and sup.weak()
+
+
+def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownElement,
+           seen_through: float, outside: float, robot_hidden_known: float) -> tuple[Element | None, CarryDecision]:
+    """The element to use for ``spec`` (id ``eid``) and the decision, given the contradiction figures of the
+    remembered estimate ``known`` (:func:`~code_as_monitor.geometry.occlusion.contradiction`) and the fraction of
+    its cloud the robot hides now (used when ``fresh`` is None)."""
+    fig = {"from_t": round(known.t, 3), "seen_through": round(seen_through, 3), "outside": round(outside, 3),
+           "evidence_known": round(evidence(known.support), 1),
+           "evidence_fresh": round(evidence(None if fresh is None else fresh.support), 1)}
+    if fresh is not None and fresh.support is not None:
+        fig["robot_hidden"] = round(fresh.support.robot_hidden, 3)
+        fig["shift"] = round(float(np.linalg.norm(fresh.points.mean(axis=0) - known.points.mean(axis=0))), 4)
+    else:
+        fig["robot_hidden_known"] = round(robot_hidden_known, 3)
+
+    def keep(reason: str) -> tuple[Element | None, CarryDecision]:
+        return fresh, CarryDecision(eid, spec.name, False, reason, fig)
+
+    if fresh is None and robot_hidden_known < ROBOT_HIDDEN_WEAK:
+        return keep("no view sees it and the robot does not hide where it was")
+    if fresh is not None and known.points.shape != fresh.points.shape:
+        return keep("the remembered estimate has another shape")
+    if not np.all(np.isfinite(known.points)):
+        return keep("the remembered estimate is not finite")
+    if evidence(known.support) <= evidence(None if fresh is None else fresh.support):
+        return keep("the remembered estimate rests on no more unhidden points than the fresh one")
+    if seen_through > MAX_SEEN_THROUGH:
+        return keep(f"the views see past {seen_through:.0%} of the remembered estimate (it moved)")
+    if outside > MAX_OUTSIDE:
+        return keep(f"{outside:.0%} of the visible points lie outside the remembered estimate (it moved)")
+    sup = replace(known.support, carried=True) if known.support is not None else None
+    el = Element(eid, spec.name, spec.kind, known.points.copy(), (spec.obj, spec.part), color_for(eid),
+                 cloud=None if known.cloud is None else known.cloud.copy(), support=sup)
+    el.object_cloud = el.cloud if (fresh is None or fresh.object_cloud is None or not spec.part) else fresh.object_cloud
+    return el, CarryDecision(eid, spec.name, True, "the robot hides it; the remembered estimate is not contradicted",
+                             fig)
+
+
+def carry_over(built: dict[int, Element | None], specs: Mapping[int, ElementSpec], known: Mapping[Key, KnownElement],
+               figures: Mapping[int, tuple[float, float, float]]) -> tuple[dict[int, Element | None],
+                                                                         list[CarryDecision]]:
+    """Apply :func:`decide` to every element with a remembered estimate whose contradiction figures
+    ``(seen_through, outside, robot_hidden_known)`` were measured (the painter measures them for the candidates).
+    Returns the elements (carried ones replaced) and the decisions."""
+    out = dict(built)
+    decisions = []
+    for eid, fig in figures.items():
+        spec = specs[eid]
+        k = known.get(key_of(spec))
+        if k is None:
+            continue
+        out[eid], d = decide(eid, spec, built.get(eid), k, *fig)
+        decisions.append(d)
+    return out, decisions
+
+
+__all__ = ["MAX_OUTSIDE", "MAX_SEEN_THROUGH", "ROBOT_INVOLVED", "CarryDecision", "KnownElement", "candidate",
+           "carry_over", "decide", "evidence", "key_of", "known_from"]
