@@ -68,3 +68,35 @@ def test_placement_noise_offsets_are_bounded_and_logged():
         assert len(ev) == 1 and ev[0]["obj"] == "green_block"
         assert np.linalg.norm(ev[0]["offset"]) <= 0.03 + 1e-9
         assert np.allclose(env.policy.inner.action.args["xy"], red + np.array(ev[0]["offset"]))
+
+
+def test_a_set_down_dropped_onto_the_table_lands_on_its_target():
+    """A block dropped while being set down on the table (``place_on`` target ``table``) and resting on the table
+    landed on its target, whatever spot of the table it comes to rest on; one dropped while being placed on a
+    block and resting on the table did not."""
+    with make_env("stack-in-order", seed=1, p=1.0) as env:
+        env.policy.start(Action("pick", {"obj": "green_block"}))
+        while not env.policy.done:
+            env.policy.step()
+        for _ in range(80):
+            env.policy.step()
+        first = env.world.events.of_kind("block_fell")[0]
+        assert first["target"] == "" and not first["on_target"]  # dropped during the pick: no target
+    for target, expected in (("table", True), ("red_block", False)):
+        with make_env("stack-in-order", seed=1) as env:
+            env.policy.start(Action("pick", {"obj": "green_block"}))
+            while not env.policy.done:
+                env.policy.step()
+            w = env.world
+            drop = Drop(1.0, check_hz=10.0, seed=0)  # from now on, every decision releases
+            w.tick_hooks = [h for h in w.tick_hooks if getattr(h, "__self__", None).__class__ is not Drop]
+            drop.install(w)
+            env.policy.start(Action("place_on", {"obj": "green_block", "target": target}))
+            for _ in range(200):
+                env.policy.step()
+                if env.world.events.of_kind("block_fell"):
+                    break
+            fell = env.world.events.of_kind("block_fell")
+            assert fell, f"no block_fell while placing on {target}"
+            assert fell[0]["target"] == target and fell[0]["on"] == "table"
+            assert fell[0]["on_target"] is expected

@@ -119,6 +119,33 @@ def test_stack_collapse_while_placing_blue_sets_blue_down_then_restarts_from_gre
     assert gen.next_subgoal(STACK, IMG, objs, place_blue, fb).action.args == {"obj": "blue_block"}
 
 
+def test_stack_pick_watches_the_tower_built_so_far():
+    """Picking level 2 (blue) has green-on-red as a during check: a cup reaching for a block that lies against
+    the tower can knock green off, or lift it instead. Picking level 1 has no tower to watch."""
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    pick_green, pick_blue = _subgoal(gen, objs, 0), _subgoal(gen, objs, 2)
+    assert [c.id for c in pick_green.constraints] == ["held_green_block"]
+    by_id = {c.id: c for c in pick_blue.constraints}
+    assert set(by_id) == {"held_blue_block", "tower_green_block_on_red_block"}
+    tower = by_id["tower_green_block_on_red_block"]
+    assert tower.phase.value == "during" and not tower.proactive
+    assert [(p.obj, p.kind.value) for p in tower.parts] == [("green_block", "point"), ("red_block", "point")]
+
+
+def test_stack_collapse_while_picking_blue_sets_down_what_the_cup_may_hold_then_restarts_from_green():
+    """The cup may hold blue (or green, lifted off the tower instead of blue) when the collapse is seen: whatever
+    it holds goes down on free table before green is picked again."""
+    gen, _ = gen_coder()
+    objs = infer_objects(STACK)
+    pick_blue = _subgoal(gen, objs, 2)
+    fb = "green_block is no longer on red_block (offset 0.006 m, height difference 0.095 m): the tower collapsed"
+    aside = gen.next_subgoal(STACK, IMG, objs, pick_blue, fb)
+    assert aside.action.to_dict() == {"skill": "place_on", "args": {"obj": "blue_block", "target": "table"}}
+    nxt = gen.next_subgoal(STACK, IMG, objs, aside, "success")
+    assert nxt.action.to_dict() == {"skill": "pick", "args": {"obj": "green_block"}}
+
+
 def test_failed_pick_picks_again():
     gen, _ = gen_coder()
     objs = infer_objects(STACK)

@@ -20,7 +20,8 @@ ROPE = "use the rope to close the opening of the square"
 STACK_STARTS = [
     {("robot", "tip"): [0.4, 0.0, 0.3], ("green_block", ""): [0.5, 0.1, 0.02]},
     {("robot", "tip"): [0.5, 0.1, 0.16], ("green_block", ""): [0.5, 0.1, 0.14], ("red_block", ""): [0.4, -0.1, 0.02]},
-    {("robot", "tip"): [0.4, 0.0, 0.3], ("blue_block", ""): [0.6, 0.1, 0.02]},
+    {("robot", "tip"): [0.4, 0.0, 0.3], ("blue_block", ""): [0.6, 0.1, 0.02], ("green_block", ""): [0.4, -0.1, 0.06],
+     ("red_block", ""): [0.4, -0.1, 0.02]},
     {("robot", "tip"): [0.6, 0.1, 0.16], ("blue_block", ""): [0.6, 0.1, 0.14], ("green_block", ""): [0.4, -0.1, 0.06],
      ("red_block", ""): [0.4, -0.1, 0.02]},
 ]

@@ -89,7 +89,8 @@ class PolicyWrapper:
 class DropConfig(DisturbanceConfig):
     """``p``: release probability per drop decision; ``check_hz``: decisions per second of holding;
     ``landing_tol``: metres off the target's centre within which a dropped object resting on its target counts
-    as ``on_target`` (the task's placement tolerance)."""
+    as ``on_target`` (the task's placement tolerance; a drop while setting down on the ``table`` is on target
+    wherever on the table it comes to rest)."""
 
     p: float = 0.0
     check_hz: float = 1.0
@@ -180,7 +181,9 @@ class Drop(Disturbance):
                 offset = None
                 if target and target in world.objects:
                     offset = round(float(np.linalg.norm(pos[:2] - world.position(target)[:2])), 4)
-                on_target = bool(target) and on == target and offset is not None and offset <= self.landing_tol
+                # "on the table" is the whole of a set-down's target (the policy picks any free spot on it)
+                on_target = bool(target) and on == target and (
+                    target == "table" or (offset is not None and offset <= self.landing_tol))
                 world.events.log(world.t, "block_fell", world.name_of(body), pos=pos.tolist(), dropped_at=t0,
                                  on=on, target=target, target_offset=offset, on_target=on_target)
                 del self._falling[body]

@@ -17,6 +17,7 @@ Thresholds are the paper's "manually initialized thresholds for common tasks in 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from code_as_monitor.vlm.kb.families.stack_goal import StackGoal, scene, task_params, understand
@@ -63,9 +64,29 @@ def _thr(kind: str) -> dict[str, float]:
 
 
 # --- constraint builders -----------------------------------------------------------------------------------
-def pick(obj: str) -> list[dict[str, Any]]:
-    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began."""
-    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup")]
+def pick(obj: str, tower_below: Sequence[tuple[str, str]] = ()) -> list[dict[str, Any]]:
+    """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began; during, the
+    levels already stacked stay stacked (a cup reaching for a block that lies against the tower can knock a level
+    off, or lift it instead of its target).
+
+    Args:
+        obj: the block to pick.
+        tower_below: (upper, lower) pairs already stacked that must stay stacked.
+    """
+    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup"), *_tower_intact(tower_below)]
+
+
+def _tower_intact(pairs: Sequence[tuple[str, str]]) -> list[dict[str, Any]]:
+    """During: each (upper, lower) pair of the tower built so far stays stacked (reactive collapse detection)."""
+    tower = _thr("tower")
+    return [
+        constraint(
+            f"tower_{upper}_on_{lower}",
+            f"{nice(upper)} is still on {nice(lower)} (the tower has not collapsed)",
+            "during", False, tower, [whole(upper), whole(lower)],
+        )
+        for upper, lower in pairs
+    ]
 
 
 def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -111,16 +132,7 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
             "upon", False, rel, [TIP, whole(obj)],
         ),
     ]
-    tower = _thr("tower")
-    for upper, lower in tower_below:
-        out.append(
-            constraint(
-                f"tower_{upper}_on_{lower}",
-                f"{nice(upper)} is still on {nice(lower)} (the tower has not collapsed)",
-                "during", False, tower, [whole(upper), whole(lower)],
-            )
-        )
-    return out
+    return out + _tower_intact(tower_below)
 
 
 # --- templates ---------------------------------------------------------------------------------------------
@@ -209,15 +221,19 @@ def tower(c: Spec) -> str:
 
 
 # --- the rule ----------------------------------------------------------------------------------------------
+def _below(task: StackGoal, level: int) -> list[tuple[str, str]]:
+    """The (upper, lower) pairs stacked under tower level ``level`` when it is being picked or placed."""
+    return [(task.tower[i], task.tower[i - 1]) for i in range(1, level)]
+
+
 def _pick(task: StackGoal, level: int, why: str) -> dict[str, Any]:
     obj = task.tower[level]
-    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, pick(obj), why)
+    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, pick(obj, _below(task, level)), why)
 
 
 def _place(task: StackGoal, level: int, why: str) -> dict[str, Any]:
     obj, target = task.tower[level], task.tower[level - 1]
-    below = [(task.tower[i], task.tower[i - 1]) for i in range(1, level)]
-    cons = place_on(obj, target, below)
+    cons = place_on(obj, target, _below(task, level))
     return answer(
         f"place {nice(obj)} on {nice(target)}",
         "place_on", {"obj": obj, "target": target}, cons, why,
@@ -243,8 +259,8 @@ def _restart_level(task: StackGoal, feedback: str | None) -> int:
 def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
     """The next subgoal of the tower from the previous one and its feedback (stateless).
 
-    A placement that failed with the tower disturbed (a collapse, the block below pushed) may have left the
-    carried block on the suction cup, and a cup that holds one block cannot pick another: the block is put down
+    A placement or a pick that failed with the tower disturbed (a collapse, the block below pushed) may have left the
+    block (or another) on the suction cup, and a cup that holds one block cannot pick another: the block is put down
     on free table first, and the subgoal's text names the level to rebuild from, which the next call reads.
     """
     tower = task.tower
@@ -263,8 +279,9 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
     cat = classify(feedback)
     if cat == "collapse":
         lowest = _restart_level(task, feedback)
-        if skill == "place_on" and lowest != level:
-            return _set_down(task, obj, lowest, f"the tower was disturbed while {obj} was being placed; it may still "
+        if lowest != level:  # a cup that holds a block cannot pick another: put down what it may hold first
+            doing = "placed" if skill == "place_on" else "picked (the cup may have grasped it, or another block)"
+            return _set_down(task, obj, lowest, f"the tower was disturbed while {obj} was being {doing}; it may "
                                                 f"be on the suction cup, so put it aside, then rebuild from "
                                                 f"{tower[lowest]} (level {lowest})")
         if skill == "place_on":
