@@ -81,3 +81,13 @@ def test_the_run_command_carries_the_suite_replan_bound():
 
     assert "--max-replans 0 " in run_command("turn-tap", 7, {}, {"max_replans": 0})
     assert f"--max-replans {DEFAULT_MAX_REPLANS} " in run_command("turn-tap", 7, {}, {})
+
+
+def test_a_rerun_that_differs_in_any_counted_failure_kind_is_reported():
+    """Every failure kind the metrics count is compared (an over-sweep or a policy failure included)."""
+    from code_as_monitor.bench.metrics import FAILURE_KINDS
+
+    base = {"success": True, "reason": "ok", "alarms": [], "gt": []}
+    for kind in FAILURE_KINDS:
+        rerun = {**base, "gt": [{"t": 1.0, "kind": kind, "obj": "x"}]}
+        assert any(kind in d for d in compare(base, rerun, 0.1)), kind

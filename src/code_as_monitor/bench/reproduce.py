@@ -20,13 +20,14 @@ from typing import Any
 
 from code_as_monitor.bench.commands import parse_key, record_key_text, reproduce_command, run_command
 from code_as_monitor.bench.episode import EpisodeOptions, run_episode
+from code_as_monitor.bench.metrics import FAILURE_KINDS
 from code_as_monitor.bench.protocol import Job
 from code_as_monitor.bench.runner import episode_records, read_results, record_key
 from code_as_monitor.core.errors import RunError
 
-FAILURE_EVENT_KINDS = ("drop", "regrasped", "block_fell", "tower_collapsed", "object_moved", "grasp_perturbed",
-                       "object_knocked", "grasp_slipped", "pour_undone", "placement_noise")
-"""Ground-truth kinds compared between a record and its re-run."""
+FAILURE_EVENT_KINDS = tuple(dict.fromkeys((*FAILURE_KINDS, "regrasped", "block_fell", "placement_noise")))
+"""Ground-truth kinds compared between a record and its re-run: every failure kind the metrics count (one list,
+:data:`~code_as_monitor.bench.metrics.FAILURE_KINDS`) and the events that settle or cause them."""
 
 
 def find_record(results: str | Path, key: str) -> tuple[dict[str, Any], dict[str, Any]]:
