@@ -68,3 +68,49 @@ def test_a_new_episode_forgets_what_the_last_one_remembered() -> None:
         monitor = Monitor(Planner([_subgoal("move block", during=False)]), checker)
         user_loop(monitor, w, MovePolicy(w, stop_at=0.25))
     assert painter.known == [None, None]
+
+
+class SurveyingPainter(RecordingPainter):
+    """A painter that builds elements by object: the first frame's survey goes through it."""
+
+    connect_points = True
+
+    def __init__(self, visible: set[str]) -> None:
+        super().__init__()
+        self.visible = visible
+        self.surveyed: list[list[str]] = []
+
+    def build_elements(self, obs, specs, texts=None):
+        from code_as_monitor.core.elements import Element
+
+        self.surveyed.append([s.obj for s in specs.values()])
+        return {i: (Element.point(i, s.name, np.array([0.4, 0.0, 0.02]), (s.obj, s.part)) if s.obj in self.visible
+                    else None) for i, s in specs.items()}
+
+
+def test_the_first_frame_surveys_every_object_so_an_unwatched_one_can_be_carried_over_later() -> None:
+    """An object no subgoal has watched yet (the block under the arm at the start of a place) is remembered from
+    the episode's first frame; one no view sees then is not remembered, and the robot is never surveyed."""
+    w = World()
+    painter = SurveyingPainter(visible={"block"})
+    checker = CodeChecker(Coder(), painter, Tracker(w), Runtime(RULES), History, AgentConfig())
+    monitor = Monitor(Planner([_subgoal("move block", during=False)]), checker)
+    user_loop(monitor, w, MovePolicy(w, stop_at=0.25))
+    assert painter.surveyed == [["block"]]
+    first = painter.known[0]
+    assert list(first) == [("block", "", "point")] and first[("block", "", "point")].t == 0.0
+
+    w2 = World()
+    hidden = SurveyingPainter(visible=set())
+    checker = CodeChecker(Coder(), hidden, Tracker(w2), Runtime(RULES), History, AgentConfig())
+    user_loop(Monitor(Planner([_subgoal("move block", during=False)]), checker), w2, MovePolicy(w2, stop_at=0.25))
+    assert hidden.surveyed == [["block"]] and hidden.known[0] is None
+
+
+def test_no_survey_when_the_painter_splits_elements_into_points() -> None:
+    w = World()
+    painter = SurveyingPainter(visible={"block"})
+    painter.connect_points = False
+    checker = CodeChecker(Coder(), painter, Tracker(w), Runtime(RULES), History, AgentConfig())
+    user_loop(Monitor(Planner([_subgoal("move block", during=False)]), checker), w, MovePolicy(w, stop_at=0.25))
+    assert painter.surveyed == [] and painter.known[0] is None

@@ -69,7 +69,29 @@ class CodeChecker:
         self._known.clear()
         self._last = None
         self._elements = []
+        self._survey(obs)
         return None
+
+    def _survey(self, obs: Observation) -> None:
+        """Remember every scene object as a whole-object point from the episode's first frame, so that an object
+        no subgoal has watched yet can still be carried over when the robot later hides it (the arm holding one
+        block over another at the start of the place). Only when the painter builds elements by object and the
+        observation names its objects; an object no view sees now is simply not remembered."""
+        build = getattr(self.painter, "build_elements", None)
+        if build is None or not obs.objects or not getattr(self.painter, "connect_points", True):
+            return
+        from code_as_monitor.core.elements import ElementKind, ElementSpec
+        from code_as_monitor.painter.carry_over import key_of, known_from
+
+        specs = {i: ElementSpec(o.replace("_", " "), o, "", ElementKind.POINT)
+                 for i, o in enumerate(o for o in obs.objects if o != "robot")}
+        try:
+            built = build(obs, specs)
+        except PerceptionError:
+            return  # the survey is an aid: a subgoal's own painting reports what it cannot see
+        for i, el in built.items():
+            if el is not None:
+                self._known[key_of(specs[i])] = known_from(el, el.points, obs.t)
 
     def _remember(self) -> None:
         """Fold where the tracker last had the watched subgoal's elements into the remembered estimates (by object,
