@@ -41,7 +41,10 @@ def test_lk_follows_textured_block_in_3d(rigid):
             err = np.linalg.norm(res.points[e.id] - (e.points + f * v), axis=1).max()
             assert err < 0.01, (f, e.name, err)
             assert not res.stale[e.id].any() and res.visible_views[e.id] == 2
+            # the anchors behind its fused points, over both views: at most 6 per point and view
+            assert 0 < res.support[e.id] <= 2 * 6 * len(e.points), (f, e.name, res.support[e.id])
         np.testing.assert_allclose(res.points[2], tip[None])  # forward kinematics, not images
+        assert res.support[2] == float("inf")
     assert res.t == pytest.approx(2.0)
 
 
@@ -122,7 +125,7 @@ def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
         for i in (0, 1):
             assert res.stale[i].all()
             np.testing.assert_array_equal(res.points[i], last[i])  # never replaced by garbage
-            assert res.visible_views[i] == 0
+            assert res.visible_views[i] == 0 and res.support[i] == 0.0  # nothing supports a held position
     assert calls and {i for _, i in calls} == {0, 1}  # hook ran after reacquire_after stale frames
     # The board goes away; the painter (hook) finds the block again where it now is.
     scene.boxes.remove(board)

@@ -295,12 +295,18 @@ class TrackResult:
         stale: element id -> (k,) bool, True where the point was not observed this frame.
         visible_views: element id -> number of views in which at least one of its points was
             observed this frame (kinematic elements count the views they project into).
+        support: element id -> how many observations this frame's position of the element rests on, as the
+            tracker counts them (``lk``: the anchors behind its fused points; ``depth``: the model points its
+            registered pose saw, summed over the views); ``inf`` where the motion is exact (the oracle reads poses). An element the tracker
+            does not report has no known support: a position it moved is not trusted over a measurement (the
+            painter's carry-over, :mod:`code_as_monitor.painter.carry_over`).
     """
 
     t: float
     points: dict[int, np.ndarray]
     stale: dict[int, np.ndarray]
     visible_views: dict[int, int] = field(default_factory=dict)
+    support: dict[int, float] = field(default_factory=dict)
 
     def any_stale(self) -> list[int]:
         """Ids of elements with at least one stale point."""

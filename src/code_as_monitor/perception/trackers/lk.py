@@ -40,11 +40,16 @@ Re-acquisition of points stale in every view: when an element has had a stale po
 ``reacquire_after`` frames, the hook set by :meth:`set_reacquire` (the agent re-runs the painter) is
 called; a returned element replaces the points and is re-seeded, ``None`` waits another period.
 
+Support (``TrackResult.support``): the number of anchor estimates, over all views, behind an element's fused points
+this frame (0 when stale).
+
 Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). The per-view state,
 the rigid fit and the fusion helpers live in :mod:`.lk_state`.
 """
 
 from __future__ import annotations
+
+import math
 
 import cv2
 import numpy as np
@@ -98,6 +103,7 @@ class LKTracker(Tracker):
         self.ref = np.zeros((0, 3))  # (M, 3) reference shape for the rigid fit
         self.stale = np.zeros(0, dtype=bool)
         self._stale_frames: dict[int, int] = {}
+        self._support: dict[int, float] = {}  # element id -> anchors behind its fused points, last frame
         r = c.seed_search_px
         offs = np.arange(-r, r + 1, max(1, r // 3)) if r > 0 else np.zeros(1)
         du, dv = np.meshgrid(offs, offs)
@@ -113,6 +119,7 @@ class LKTracker(Tracker):
     def reset(self, obs: Observation, elements: list[Element]) -> None:
         self._anchors.clear()
         self._views.clear()
+        self._support = {}
         tracked = []
         for el in elements:
             if el.owner[0] in self.config.kinematic_owners:
@@ -156,6 +163,8 @@ class LKTracker(Tracker):
             fused = nanmean(per_view, observed)
         self._update_points(fused, ok)
         visible = {eid: int(observed[:, sl].any(axis=1).sum()) for eid, sl in self._slices.items()}
+        anchors = np.where(ok, np.isfinite(est[:, :, 0]).reshape(len(obs.views), m, K).sum(axis=(0, 2)), 0)
+        self._support = {eid: float(anchors[sl].sum()) for eid, sl in self._slices.items()}
         fresh = ~self.stale
         for name, view in obs.views.items():
             st = self._views[name]
@@ -385,12 +394,15 @@ class LKTracker(Tracker):
         points: dict[int, np.ndarray] = {}
         stale: dict[int, np.ndarray] = {}
         visible: dict[int, int] = {}
+        support: dict[int, float] = {}
         for eid in self._order:
             if eid in self._anchors:
                 points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
+                support[eid] = math.inf  # forward kinematics
             else:
                 sl = self._slices[eid]
                 points[eid] = self.P[sl].copy()
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
-        return TrackResult(obs.t, points, stale, visible)
+                support[eid] = self._support.get(eid, 0.0)
+        return TrackResult(obs.t, points, stale, visible, support)
