@@ -8,13 +8,10 @@ A tracker follows the painted elements from frame to frame (streaming)::
     tracker.reset(obs0, elements)        # elements: list[Element], points (k, 3) world metres
     res = tracker.step(obs1)             # res.points[id] (k, 3) world, res.stale[id] (k,) bool
 
-A point the tracker has lost is *stale*: it keeps its last good position and is flagged, never
-replaced by a guess. Elements owned by the robot's end-effector (owner object ``"robot"`` by default)
-follow forward kinematics (``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every
-backend: they are never tracked in images.
-
-The backend configs are registered here; implementations (``lk``, ``depth``, ``sim``) are imported only by
-:func:`make_tracker`.
+A point the tracker has lost is *stale*: it keeps its last good position and is flagged, never replaced by a guess.
+Elements owned by the robot's end-effector (owner object ``"robot"`` by default) follow forward kinematics
+(``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every backend: they are never tracked in images.
+The backend configs are registered here; implementations (``lk``, ``depth``, ``sim``) load in :func:`make_tracker`.
 """
 
 from __future__ import annotations
@@ -295,11 +292,8 @@ class TrackResult:
         stale: element id -> (k,) bool, True where the point was not observed this frame.
         visible_views: element id -> number of views in which at least one of its points was
             observed this frame (kinematic elements count the views they project into).
-        support: element id -> how many observations this frame's position of the element rests on, as the
-            tracker counts them (``lk``: the anchors behind its fused points; ``depth``: the model points its
-            registered pose saw, summed over the views); ``inf`` where the motion is exact (the oracle reads poses). An element the tracker
-            does not report has no known support: a position it moved is not trusted over a measurement (the
-            painter's carry-over, :mod:`code_as_monitor.painter.carry_over`).
+        support: element id -> observations this position rests on (``lk``: anchor estimates; ``depth``: model points
+            its pose saw; ``inf``: exact, the oracle). Not reported: none known (the carry-over trusts no such move).
     """
 
     t: float

@@ -40,9 +40,6 @@ Re-acquisition of points stale in every view: when an element has had a stale po
 ``reacquire_after`` frames, the hook set by :meth:`set_reacquire` (the agent re-runs the painter) is
 called; a returned element replaces the points and is re-seeded, ``None`` waits another period.
 
-Support (``TrackResult.support``): the number of anchor estimates, over all views, behind an element's fused points
-this frame (0 when stale).
-
 Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). The per-view state,
 the rigid fit and the fusion helpers live in :mod:`.lk_state`.
 """
@@ -57,12 +54,7 @@ import numpy as np
 from code_as_monitor.core.elements import Element, ElementKind
 from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import Observation, View
-from code_as_monitor.perception.trackers.base import (
-    KinematicAnchor,
-    LKTrackerConfig,
-    Tracker,
-    TrackResult,
-)
+from code_as_monitor.perception.trackers.base import KinematicAnchor, LKTrackerConfig, Tracker, TrackResult
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
     cam_z,
@@ -346,7 +338,8 @@ class LKTracker(Tracker):
                 continue
             if new.id != eid:
                 raise PerceptionError(f"reacquire hook returned element {new.id} for element {eid}")
-            self._replace(obs, new)
+            self._replace(obs, new)  # this frame's position is a paint: its support is the paint's unhidden points
+            self._support[eid] = new.support.points * (1.0 - new.support.robot_hidden) if new.support else 0.0
 
     def _replace(self, obs: Observation, new: Element) -> None:
         """Swap in a re-detected element (any point count) and seed it in every view."""
@@ -394,15 +387,13 @@ class LKTracker(Tracker):
         points: dict[int, np.ndarray] = {}
         stale: dict[int, np.ndarray] = {}
         visible: dict[int, int] = {}
-        support: dict[int, float] = {}
+        support = {eid: math.inf if eid in self._anchors else self._support.get(eid, 0.0) for eid in self._order}
         for eid in self._order:
-            if eid in self._anchors:
+            if eid in self._anchors:  # forward kinematics
                 points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
-                support[eid] = math.inf  # forward kinematics
             else:
                 sl = self._slices[eid]
                 points[eid] = self.P[sl].copy()
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
-                support[eid] = self._support.get(eid, 0.0)
         return TrackResult(obs.t, points, stale, visible, support)
