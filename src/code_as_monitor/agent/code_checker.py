@@ -293,9 +293,10 @@ class CodeChecker:
                     continue
                 moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
                 if moved <= self.cfg.refresh_motion:
-                    points[e.id] = e.points  # at rest all along: its measurement from the subgoal start
+                    # at rest all along: its measurement from the subgoal start (still as good as the tracker that
+                    # says it rested: its tracked support is kept)
+                    points[e.id] = e.points
                     stale[e.id] = np.zeros(len(e.points), dtype=bool)
-                    tracked[e.id] = e.support.tracked if e.support is not None else math.inf
                     continue
                 fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
                 if fresh is not None and fresh.points.shape == points[e.id].shape:
