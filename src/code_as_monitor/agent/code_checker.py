@@ -277,6 +277,26 @@ class CodeChecker:
         self.on_frame(obs, current, tr.stale, verdicts, banner)
 
     # --- the policy has finished: judge the upon checks ---------------------------------------------------
+    def _remeasured_at_rest(self, obs: Observation, e: Element, ctx: MonitorContext) -> Element | None:
+        """A fresh measurement of ``e``, an element the tracker saw at rest all subgoal, to judge the upon checks on
+        instead of its measurement from the subgoal start; None keeps that one.
+
+        The start measurement is kept unless its own support calls it weak (:meth:`ElementSupport.weak
+        <code_as_monitor.core.elements.ElementSupport.weak>`: e.g. painted mostly through the robot, whose arm is
+        often over the next target when a subgoal starts) and a measurement from this static frame is not weak.
+        A strong start measurement is kept even when the fresh one differs: re-painting now measures what is left
+        visible (the sides of a block another block now covers)."""
+        sup = e.support
+        if sup is None or not sup.weak():
+            return None
+        fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
+        if fresh is None or fresh.support is None or fresh.support.weak() or fresh.points.shape != e.points.shape:
+            return None
+        shift = float(np.linalg.norm(fresh.points.mean(axis=0) - e.points.mean(axis=0)))
+        ctx.emit("element_remeasured", t=obs.t, id=e.id, name=e.name, robot_hidden_start=round(sup.robot_hidden, 3),
+                 robot_hidden_now=round(fresh.support.robot_hidden, 3), shift=round(shift, 4))
+        return fresh
+
     def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
         one period apart, until every upon check has a verdict that is neither a fault nor stale."""
@@ -293,10 +313,13 @@ class CodeChecker:
                     continue
                 moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
                 if moved <= self.cfg.refresh_motion:
-                    # at rest all along: its measurement from the subgoal start (still as good as the tracker that
-                    # says it rested: its tracked support is kept)
-                    points[e.id] = e.points
-                    stale[e.id] = np.zeros(len(e.points), dtype=bool)
+                    # at rest all along: its measurement from the subgoal start, unless that one was weak (kept, it
+                    # is as good as the tracker that says it rested: its tracked support stays; re-measured, it is new)
+                    kept = self._remeasured_at_rest(obs, e, ctx) or e
+                    points[e.id] = kept.points
+                    stale[e.id] = np.zeros(len(kept.points), dtype=bool)
+                    if kept is not e:
+                        tracked[e.id], measured[e.id] = math.inf, kept
                     continue
                 fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
                 if fresh is not None and fresh.points.shape == points[e.id].shape:
