@@ -4,13 +4,18 @@ decisions are events."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal, user_loop
 
 from code_as_monitor.agent.code_checker import CodeChecker
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.monitor import Monitor
-from code_as_monitor.painter.carry_over import CarryDecision
+from code_as_monitor.core.elements import ElementSupport
+from code_as_monitor.painter.carry_over import CarryDecision, evidence
+from code_as_monitor.perception.trackers.base import TrackResult
 
 
 class RecordingPainter(Painter):
@@ -114,3 +119,61 @@ def test_no_survey_when_the_painter_splits_elements_into_points() -> None:
     checker = CodeChecker(Coder(), painter, Tracker(w), Runtime(RULES), History, AgentConfig())
     user_loop(Monitor(Planner([_subgoal("move block", during=False)]), checker), w, MovePolicy(w, stop_at=0.25))
     assert painter.surveyed == [] and painter.known[0] is None
+
+
+class SupportPainter(Painter):
+    """Paints the block as a measurement of 300 points and records the remembered estimates it gets."""
+
+    def __init__(self) -> None:
+        self.known: list[dict | None] = []
+
+    def paint(self, obs, subgoal, known=None):
+        self.known.append(None if known is None else dict(known))
+        res = super().paint(obs, subgoal)
+        res.elements = [replace(e, support=ElementSupport(300, 2, 0.001)) for e in res.elements]
+        return res
+
+
+class SupportTracker(Tracker):
+    """Reports ``support(frame)`` observations for every element, stale on the frames in ``stale_frames``."""
+
+    def __init__(self, world: World, support, stale_frames=()) -> None:
+        super().__init__(world)
+        self.support, self.stale_frames = support, set(stale_frames)
+        self.steps: list = []
+
+    def step(self, obs):
+        n = len(self.steps)
+        tr = super().step(obs)
+        stale = n in self.stale_frames
+        s = self.support(n)
+        self.steps.append((obs.t, s, stale))
+        return TrackResult(obs.t, tr.points, {i: np.array([stale]) for i in tr.points}, {i: 2 for i in tr.points},
+                           {} if s is None else {i: s for i in tr.points})
+
+
+def _remembered(tracker) -> tuple:
+    w = tracker.w
+    painter = SupportPainter()
+    checker = CodeChecker(Coder(), painter, tracker, Runtime(RULES), History, AgentConfig())
+    monitor = Monitor(Planner([_subgoal("move block", during=False), _subgoal("move it again", during=False)]),
+                      checker)
+    user_loop(monitor, w, MovePolicy(w, stop_at=0.25))
+    return painter.known[1][("block", "", "point")]
+
+
+def test_a_remembered_estimate_keeps_the_weakest_support_its_tracker_reported_since_the_paint() -> None:
+    """A tracked estimate is no better than its tracker's weakest frame (issue 12: LK's drifting estimate of a held
+    block was carried over as if it were the paint it started from). Stale frames hold a position, not a new
+    estimate: they do not count."""
+    tracker = SupportTracker(World(), lambda n: 1.0 if n in (1, 2) else (30.0 - n if n < 5 else 30.0),
+                             stale_frames={1, 2})
+    k = _remembered(tracker)
+    frames = [s for t, s, stale in tracker.steps if t <= k.t and not stale]
+    assert len(frames) >= 5 and k.support.tracked == min(frames) == 26.0
+    assert evidence(k.support) == 26.0  # not the paint's 300 points
+
+
+def test_an_exact_tracker_leaves_the_paint_s_evidence_and_a_silent_one_leaves_none() -> None:
+    assert evidence(_remembered(SupportTracker(World(), lambda n: math.inf)).support) == 300.0
+    assert evidence(_remembered(SupportTracker(World(), lambda n: None)).support) == 0.0

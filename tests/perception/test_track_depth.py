@@ -74,6 +74,8 @@ def test_depth_follows_textureless_boxes_in_3d():
             assert not res.stale[e.id].any(), (f, e.name)
             err = np.linalg.norm(res.points[e.id] - (e.points + f * v), axis=1).max()
             assert err < 0.003, (f, e.name, err)
+            # the model points its registered pose saw, summed over the views: a count
+            assert 0 < res.support[e.id] < float("inf") and res.support[e.id] == int(res.support[e.id])
         np.testing.assert_allclose(res.points[2], els[2].points, atol=1e-3)
         np.testing.assert_allclose(res.points[3], tip[None])  # forward kinematics, not images
     assert res.visible_views[0] == 2 and res.t == pytest.approx(0.8)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from perception_synth import Box, Scene, camera, observe, two_cameras
 
-from code_as_monitor.core.elements import Element
+from code_as_monitor.core.elements import Element, ElementSupport
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.perception.trackers.base import LKTrackerConfig, TrackerConfig, make_tracker
 from code_as_monitor.perception.trackers.lk_state import chroma_at, chroma_kept, views_agree
@@ -41,7 +41,10 @@ def test_lk_follows_textured_block_in_3d(rigid):
             err = np.linalg.norm(res.points[e.id] - (e.points + f * v), axis=1).max()
             assert err < 0.01, (f, e.name, err)
             assert not res.stale[e.id].any() and res.visible_views[e.id] == 2
+            # the anchors behind its fused points, over both views: at most 6 per point and view
+            assert 0 < res.support[e.id] <= 2 * 6 * len(e.points), (f, e.name, res.support[e.id])
         np.testing.assert_allclose(res.points[2], tip[None])  # forward kinematics, not images
+        assert res.support[2] == float("inf")
     assert res.t == pytest.approx(2.0)
 
 
@@ -102,7 +105,8 @@ def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
         if el.id not in found:
             return None
         if el.id == 1:
-            return Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]) + shift, owner=("red_block", ""))
+            return Element.point(1, "red centre", np.array([0.0, 0.0, 0.06]) + shift, owner=("red_block", ""),
+                                 support=ElementSupport(50, 2, 0.001, robot_hidden=0.2))
         return Element.surface(0, "red top", TOP[:3] + shift, owner=("red_block", "top"))  # 3 points, not 4
 
     tr = make_tracker(TrackerConfig.from_name("lk", reacquire_after=3))
@@ -122,16 +126,20 @@ def test_lk_occluded_everywhere_is_stale_keeps_last_value_and_calls_reacquire():
         for i in (0, 1):
             assert res.stale[i].all()
             np.testing.assert_array_equal(res.points[i], last[i])  # never replaced by garbage
-            assert res.visible_views[i] == 0
+            assert res.visible_views[i] == 0 and res.support[i] == 0.0  # nothing supports a held position
     assert calls and {i for _, i in calls} == {0, 1}  # hook ran after reacquire_after stale frames
     # The board goes away; the painter (hook) finds the block again where it now is.
     scene.boxes.remove(board)
     moved = box.center - np.array([0.0, 0.0, 0.03])
     found.add(1)
-    n_before = len(calls)
+    n_before, reacquired = len(calls), 0
     for f in range(9, 14):
+        n = len(calls)
         res = tr.step(observe(scene, cams, 0.1 * f))
-    assert len(calls) > n_before
+        if 1 in {i for _, i in calls[n:]}:  # re-acquired now: its position is a paint, supported by its points
+            reacquired += 1
+            assert not res.stale[1].any() and res.support[1] == pytest.approx(40.0)
+    assert len(calls) > n_before and reacquired == 1
     assert not res.stale[1].any()
     np.testing.assert_allclose(res.points[1], np.array([[0.0, 0.0, 0.06]]) + moved, atol=0.005)
     assert res.stale[0].all()  # the hook found nothing for it: still stale, still at its last value

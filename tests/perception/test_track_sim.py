@@ -44,6 +44,7 @@ def test_sim_tracker_exact_under_rigid_motion():
     np.testing.assert_allclose(res.points[2], [[0.1, 0.0, 0.25]], atol=1e-12)
     assert not any(s.any() for s in res.stale.values())
     assert res.visible_views[0] == 2
+    assert all(res.support[i] == float("inf") for i in (0, 1, 2))  # exact motion: it adds no error to a paint
 
 
 def test_sim_tracker_needs_poses():

@@ -15,6 +15,7 @@ A check that reads a stale element (lost by the tracker) gets no verdict that fr
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -61,7 +62,10 @@ class CodeChecker:
         self._settling = False
         self._unwatched = False
         self._known: dict = {}  # (object, part, kind) -> KnownElement: where the tracker last had each part
-        self._last: tuple | None = None  # (t, element id -> (k, 3) points, stale ids) of the last judged frame
+        # The last judged frame: (t, element id -> (k, 3) points, stale ids, element id -> the least support its tracker
+        # reported since its last measurement (inf: a measurement), element id -> the measurement that replaced it).
+        self._last: tuple | None = None
+        self._tracked: dict[int, float] = {}  # element id -> least tracker support since its last measurement
         self._elements: list[Element] = []
         self._painted: Any = None
 
@@ -96,20 +100,22 @@ class CodeChecker:
     def _remember(self) -> None:
         """Fold where the tracker last had the watched subgoal's elements into the remembered estimates (by object,
         part and kind) that the painter may carry over when the robot hides a part (:mod:`~code_as_monitor.painter.
-        carry_over`); elements stale at that frame, and the robot's own, are not remembered. Not with a painter
-        that splits elements into points (CP off): its points share one key."""
+        carry_over`); elements stale at that frame, and the robot's own, are not remembered. Each remembers the
+        least support its tracker reported since it was last measured (a tracked estimate is no better than its
+        tracker's weakest frame). Not with a painter that splits elements into points (CP off): its points share
+        one key."""
         last, self._last = self._last, None
         if last is None or not getattr(self.painter, "connect_points", True):
             return
         from code_as_monitor.painter.carry_over import key_of, known_from
 
-        t, points, stale = last
+        t, points, stale, tracked, measured = last
         specs = getattr(self._painted, "specs", {})
         for e in self._elements:
             spec, p = specs.get(e.id), points.get(e.id)
             if spec is None or p is None or e.owner[0] == "robot" or e.id in stale:
                 continue
-            self._known[key_of(spec)] = known_from(e, p, t)
+            self._known[key_of(spec)] = known_from(measured.get(e.id, e), p, t, tracked.get(e.id, 0.0))
 
     def close(self) -> None:
         return None
@@ -141,7 +147,9 @@ class CodeChecker:
             return SubgoalEnd("error", f"cannot see {names}")
         elements = painted.elements
         positions = {e.id: e.points for e in elements}
-        self._last = (obs.t, positions, set())
+        # A paint is a measurement; a carried element starts from its tracker's weakest frame.
+        self._tracked = {e.id: (e.support.tracked if e.support is not None else math.inf) for e in elements}
+        self._last = (obs.t, positions, set(), dict(self._tracked), {})
         history = self.history_factory(self.cfg.history_len)
         history.push(obs.t, positions)
 
@@ -261,7 +269,9 @@ class CodeChecker:
         when a check's state (ok / violated / fault) changes, not every frame."""
         tr = self.tracker.step(obs)
         self._history.push(obs.t, tr.points)
-        self._last = (obs.t, dict(tr.points), {i for i, st in tr.stale.items() if np.any(st)})
+        stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
+        self._fold_support(tr, stale_ids)
+        self._last = (obs.t, dict(tr.points), stale_ids, dict(self._tracked), {})
         H, ht = self._history.arrays()
         verdicts = self.runtime.step(tr.points, H, ht, obs.t)
         for v in verdicts:
@@ -270,6 +280,15 @@ class CodeChecker:
                 self._verdict_state[v.constraint_id] = state
                 ctx.emit("verdict", **v.to_dict())
         return verdicts, tr
+
+    def _fold_support(self, tr: Any, stale_ids: set[int]) -> None:
+        """Lower each element's least tracker support since its last measurement by this frame's report
+        (``TrackResult.support``; an element the tracker does not report rests on no known support). A stale
+        element keeps its last position, not a new estimate: its figure is unchanged."""
+        reported = getattr(tr, "support", {}) or {}
+        for eid in tr.points:
+            if eid not in stale_ids:
+                self._tracked[eid] = min(self._tracked.get(eid, math.inf), float(reported.get(eid, 0.0)))
 
     def _frame(self, obs: Observation, tr: Any, verdicts: list[Verdict], banner: str) -> None:
         """Hand the frame to ``on_frame`` with the elements at their tracked positions."""
@@ -280,6 +299,26 @@ class CodeChecker:
         self.on_frame(obs, current, tr.stale, verdicts, banner)
 
     # --- the policy has finished: judge the upon checks ---------------------------------------------------
+    def _remeasured_at_rest(self, obs: Observation, e: Element, ctx: MonitorContext) -> Element | None:
+        """A fresh measurement of ``e``, an element the tracker saw at rest all subgoal, to judge the upon checks on
+        instead of its measurement from the subgoal start; None keeps that one.
+
+        The start measurement is kept unless its own support calls it weak (:meth:`ElementSupport.weak
+        <code_as_monitor.core.elements.ElementSupport.weak>`: e.g. painted mostly through the robot, whose arm is
+        often over the next target when a subgoal starts) and a measurement from this static frame is not weak.
+        A strong start measurement is kept even when the fresh one differs: re-painting now measures what is left
+        visible (the sides of a block another block now covers)."""
+        sup = e.support
+        if sup is None or not sup.weak():
+            return None
+        fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
+        if fresh is None or fresh.support is None or fresh.support.weak() or fresh.points.shape != e.points.shape:
+            return None
+        shift = float(np.linalg.norm(fresh.points.mean(axis=0) - e.points.mean(axis=0)))
+        ctx.emit("element_remeasured", t=obs.t, id=e.id, name=e.name, robot_hidden_start=round(sup.robot_hidden, 3),
+                 robot_hidden_now=round(fresh.support.robot_hidden, 3), shift=round(shift, 4))
+        return fresh
+
     def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
         one period apart, until every upon check has a verdict that is neither a fault nor stale."""
@@ -287,6 +326,8 @@ class CodeChecker:
         tr = self.tracker.step(obs)
         points = dict(tr.points)
         stale = {i: np.asarray(st) for i, st in tr.stale.items()}
+        self._fold_support(tr, {i for i, st in stale.items() if np.any(st)})
+        tracked, measured = dict(self._tracked), {}
         if self.cfg.refresh_on_done:
             H0, _ = self._history.arrays()
             for e in self._elements:
@@ -294,17 +335,23 @@ class CodeChecker:
                     continue
                 moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
                 if moved <= self.cfg.refresh_motion:
-                    points[e.id] = e.points  # at rest all along: its measurement from the subgoal start
-                    stale[e.id] = np.zeros(len(e.points), dtype=bool)
+                    # at rest all along: its measurement from the subgoal start, unless that one was weak (kept, it
+                    # is as good as the tracker that says it rested: its tracked support stays; re-measured, it is new)
+                    kept = self._remeasured_at_rest(obs, e, ctx) or e
+                    points[e.id] = kept.points
+                    stale[e.id] = np.zeros(len(kept.points), dtype=bool)
+                    if kept is not e:
+                        tracked[e.id], measured[e.id] = math.inf, kept
                     continue
                 fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
                 if fresh is not None and fresh.points.shape == points[e.id].shape:
                     points[e.id] = fresh.points
                     stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
+                    tracked[e.id], measured[e.id] = math.inf, fresh  # measured again now
         self._history.push(obs.t, points)
         H, ht = self._history.arrays()
         stale_ids = {i for i, st in stale.items() if np.any(st)}
-        self._last = (obs.t, dict(points), stale_ids)
+        self._last = (obs.t, dict(points), stale_ids, tracked, measured)
         verdicts = [
             v for v in self.runtime.step(points, H, ht, obs.t)
             if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)

@@ -35,9 +35,10 @@ class AgentConfig:
             checks, so tracker drift accumulated during the motion does not decide the outcome: an element
             the tracker saw move more than ``refresh_motion`` during the subgoal (the carried object) is
             re-painted from the current, static frame; one it saw at rest keeps its measurement from the
-            subgoal start, when it was painted unoccluded (re-painting it now would measure whatever is
-            left visible, e.g. the sides of a block another block now covers). Robot elements follow
-            forward kinematics either way.
+            subgoal start (re-painting it now would measure whatever is left visible, e.g. the sides of a
+            block another block now covers), unless that measurement was weak (its ``ElementSupport``, e.g.
+            painted mostly through the robot's arm) and one from the static frame is not. Robot elements
+            follow forward kinematics either way.
         refresh_motion: metres of tracked centroid motion over the subgoal above which an element counts
             as moved.
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,

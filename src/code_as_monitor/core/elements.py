@@ -5,6 +5,7 @@ All points are in the world frame, metres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
@@ -104,6 +105,10 @@ class ElementSupport:
             robot (over :data:`ROBOT_HIDDEN_WEAK`) is weak, however many points it has.
         carried: True when the element is not this paint's measurement but an earlier estimate of the same part,
             carried over because the robot hid the part and nothing in the views contradicted the estimate.
+        tracked: for a carried element, the fewest observations (3-D points, anchors) a tracker reported its
+            position resting on in any frame since it was last measured (``inf``: it is a measurement, or it was
+            moved by a tracker whose motion is exact, the oracle's): a tracked estimate is no better supported than
+            its tracker's weakest frame (:func:`~code_as_monitor.painter.carry_over.evidence`).
     """
 
     points: int
@@ -115,19 +120,24 @@ class ElementSupport:
     part_seen: bool = True
     robot_hidden: float = 0.0
     carried: bool = False
+    tracked: float = math.inf
 
     def to_dict(self) -> dict:
-        return {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
-                "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent],
-                "assumed": self.assumed, "part_seen": self.part_seen, "robot_hidden": round(self.robot_hidden, 3),
-                "carried": self.carried}
+        d = {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
+             "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent],
+             "assumed": self.assumed, "part_seen": self.part_seen, "robot_hidden": round(self.robot_hidden, 3),
+             "carried": self.carried}
+        if math.isfinite(self.tracked):  # JSON has no infinity: absent means a measurement
+            d["tracked"] = round(float(self.tracked), 3)
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> ElementSupport:
         ext = tuple(float(x) for x in d.get("extent", (0.0, 0.0, 0.0)))
         return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
                    (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)),
-                   float(d.get("robot_hidden", 0.0)), bool(d.get("carried", False)))
+                   float(d.get("robot_hidden", 0.0)), bool(d.get("carried", False)),
+                   float(d.get("tracked", math.inf)))
 
     def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004,
              max_robot_hidden: float | None = None) -> bool:

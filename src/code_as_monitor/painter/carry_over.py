@@ -12,8 +12,13 @@ element by the remembered one when all of these hold:
    pixels and the fresh element is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), or no view
    sees the part and the robot hides at least :data:`~code_as_monitor.core.elements.ROBOT_HIDDEN_WEAK` of the
    remembered cloud's projections;
-2. the remembered estimate rests on more evidence: its points not hidden by the robot
-   (``points x (1 - robot_hidden)``, :func:`evidence`) outnumber the fresh element's;
+2. the remembered estimate rests on more evidence (:func:`evidence`): its points not hidden by the robot
+   (``points x (1 - robot_hidden)``), capped, when a tracker moved it since it was measured, by the fewest
+   observations the tracker reported its position resting on in any frame since
+   (:attr:`~code_as_monitor.core.elements.ElementSupport.tracked`), outnumber the fresh element's. A paint is a
+   measurement of hundreds of points; a tracker's estimate is only as good as the tracker: the oracle's motion is
+   exact (no cap), a registration rests on the model points it saw, a 2-D point tracker on a few anchors, and a
+   tracker that reports nothing on nothing (no carry-over of what it moved);
 3. nothing contradicts it now (:func:`~code_as_monitor.geometry.occlusion.contradiction`): at most
    :data:`MAX_SEEN_THROUGH` of its cloud's projections are seen through (a view reads past where it would be) and
    at most :data:`MAX_OUTSIDE` of the part's visible points lie outside it.
@@ -24,6 +29,7 @@ that cannot tell the robot) or nothing hidden, nothing is carried. Every decisio
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -51,7 +57,9 @@ class KnownElement:
         t: seconds, when the tracker last had it.
         points: (k, 3) world metres, the element's points then.
         cloud: (M, 3) world metres, the element's cloud moved with its points (None: none was painted).
-        support: the support of the measurement the points came from (a carried element keeps its origin's).
+        support: the support of the measurement the points came from (a carried element keeps its origin's), with
+            ``tracked`` the fewest observations its tracker reported since that measurement (inf: none moved it, or
+            the motion is exact).
     """
 
     t: float
@@ -65,22 +73,27 @@ def key_of(spec: ElementSpec) -> Key:
     return (spec.obj, spec.part, spec.kind.value)
 
 
-def known_from(el: Element, points: np.ndarray, t: float) -> KnownElement:
+def known_from(el: Element, points: np.ndarray, t: float, tracked: float = math.inf) -> KnownElement:
     """What to remember of painted element ``el`` whose tracker last had it at ``points`` (k, 3) at time ``t``: its
-    cloud moves by the points' mean displacement since painting."""
+    cloud moves by the points' mean displacement since painting. ``tracked``: the fewest observations the tracker
+    reported the element's position resting on in any frame since ``el`` was measured (``inf``: ``points`` are the
+    measurement, or the tracker's motion is exact); it caps the estimate's :func:`evidence`."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     cloud = None
     if el.cloud is not None and P.shape == el.points.shape and np.all(np.isfinite(P)):
         cloud = el.cloud + (P.mean(axis=0) - el.points.mean(axis=0))
-    return KnownElement(float(t), P.copy(), cloud, el.support)
+    support = el.support
+    if support is not None:
+        support = replace(support, tracked=min(float(tracked), support.tracked))
+    return KnownElement(float(t), P.copy(), cloud, support)
 
 
 def evidence(support: ElementSupport | None) -> float:
-    """The points an estimate rests on that the robot did not hide: ``points x (1 - robot_hidden)`` (0 without a
-    support)."""
+    """The points an estimate rests on that the robot did not hide, ``points x (1 - robot_hidden)``, and no more than
+    the fewest observations a tracker that moved it since reported (``support.tracked``); 0 without a support."""
     if support is None:
         return 0.0
-    return float(support.points) * (1.0 - float(support.robot_hidden))
+    return min(float(support.points) * (1.0 - float(support.robot_hidden)), float(support.tracked))
 
 
 @dataclass
@@ -115,6 +128,8 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     fig = {"from_t": round(known.t, 3), "seen_through": round(seen_through, 3), "outside": round(outside, 3),
            "evidence_known": round(evidence(known.support), 1),
            "evidence_fresh": round(evidence(None if fresh is None else fresh.support), 1)}
+    if known.support is not None and math.isfinite(known.support.tracked):
+        fig["tracked_known"] = round(known.support.tracked, 1)  # the tracker's weakest frame capped it
     if fresh is not None and fresh.support is not None:
         fig["robot_hidden"] = round(fresh.support.robot_hidden, 3)
         fig["shift"] = round(float(np.linalg.norm(fresh.points.mean(axis=0) - known.points.mean(axis=0))), 4)
@@ -131,6 +146,9 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     if not np.all(np.isfinite(known.points)):
         return keep("the remembered estimate is not finite")
     if evidence(known.support) <= evidence(None if fresh is None else fresh.support):
+        if known.support is not None and known.support.tracked < evidence(replace(known.support, tracked=math.inf)):
+            return keep("the remembered estimate rests on no more than the fresh one: its tracker's weakest frame "
+                        f"since it was measured had {known.support.tracked:.0f} observations")
         return keep("the remembered estimate rests on no more unhidden points than the fresh one")
     if seen_through > MAX_SEEN_THROUGH:
         return keep(f"the views see past {seen_through:.0%} of the remembered estimate (it moved)")

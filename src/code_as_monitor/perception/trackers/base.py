@@ -8,13 +8,10 @@ A tracker follows the painted elements from frame to frame (streaming)::
     tracker.reset(obs0, elements)        # elements: list[Element], points (k, 3) world metres
     res = tracker.step(obs1)             # res.points[id] (k, 3) world, res.stale[id] (k,) bool
 
-A point the tracker has lost is *stale*: it keeps its last good position and is flagged, never
-replaced by a guess. Elements owned by the robot's end-effector (owner object ``"robot"`` by default)
-follow forward kinematics (``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every
-backend: they are never tracked in images.
-
-The backend configs are registered here; implementations (``lk``, ``depth``, ``sim``) are imported only by
-:func:`make_tracker`.
+A point the tracker has lost is *stale*: it keeps its last good position and is flagged, never replaced by a guess.
+Elements owned by the robot's end-effector (owner object ``"robot"`` by default) follow forward kinematics
+(``obs.robot.ee_points[part]``, else ``obs.robot.ee_pose``) in every backend: they are never tracked in images.
+The backend configs are registered here; implementations (``lk``, ``depth``, ``sim``) load in :func:`make_tracker`.
 """
 
 from __future__ import annotations
@@ -295,12 +292,15 @@ class TrackResult:
         stale: element id -> (k,) bool, True where the point was not observed this frame.
         visible_views: element id -> number of views in which at least one of its points was
             observed this frame (kinematic elements count the views they project into).
+        support: element id -> observations this position rests on (``lk``: anchor estimates; ``depth``: model points
+            its pose saw; ``inf``: exact, the oracle). Not reported: none known (the carry-over trusts no such move).
     """
 
     t: float
     points: dict[int, np.ndarray]
     stale: dict[int, np.ndarray]
     visible_views: dict[int, int] = field(default_factory=dict)
+    support: dict[int, float] = field(default_factory=dict)
 
     def any_stale(self) -> list[int]:
         """Ids of elements with at least one stale point."""

@@ -35,7 +35,8 @@ Small bodies. A body too small to register (:func:`.depth_detect.is_small`: few 
 of its painted cloud, measured, never named) is followed by detection when the tracker has the painter's
 segmenter (:meth:`set_segmenter`): each frame the segmenter's masks are lifted to anonymous 3-D centroids and
 associated to the small bodies by position (:mod:`code_as_monitor.perception.trackers.depth_detect`). A small
-part does not make its whole object a body.
+part does not make its whole object a body. Support (``TrackResult.support``): the model points a registered
+body's pose saw, summed over the views; small bodies report none.
 
 Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). An element
 without a cloud (not built from masks) cannot be registered: it is stale until the hook re-paints it.
@@ -45,6 +46,7 @@ A view whose depth or camera is unusable is skipped for the frame with a logged 
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 
@@ -347,9 +349,11 @@ class DepthTracker(Tracker):
         points: dict[int, np.ndarray] = {}
         stale: dict[int, np.ndarray] = {}
         visible: dict[int, int] = {}
+        support: dict[int, float] = {}  # small bodies (detected, not registered) report none
         for eid in self._order:
             if eid in self._anchors:
                 points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
+                support[eid] = math.inf  # forward kinematics
                 continue
             owner = self._body_of.get(eid)
             sb = self._small.get(owner) if owner is not None else None
@@ -365,11 +369,12 @@ class DepthTracker(Tracker):
             if body is not None and not body.lost:
                 self._last[eid] = apply(body.T, self._local[eid])
                 fresh = True
+                support[eid] = float(body.last.seen) if body.last is not None else 0.0  # model points seen
             points[eid] = self._last[eid].copy()
             stale[eid] = np.full(len(points[eid]), not fresh)
             visible[eid] = body.seen_views if (body is not None and not body.lost) else 0
         self._fresh.clear()
-        return TrackResult(obs.t, points, stale, visible)
+        return TrackResult(obs.t, points, stale, visible, support)
 
 
 def _ee_pose(obs: Observation) -> np.ndarray | None:

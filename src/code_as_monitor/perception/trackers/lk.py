@@ -46,18 +46,15 @@ the rigid fit and the fusion helpers live in :mod:`.lk_state`.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
 from code_as_monitor.core.elements import Element, ElementKind
 from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import Observation, View
-from code_as_monitor.perception.trackers.base import (
-    KinematicAnchor,
-    LKTrackerConfig,
-    Tracker,
-    TrackResult,
-)
+from code_as_monitor.perception.trackers.base import KinematicAnchor, LKTrackerConfig, Tracker, TrackResult
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
     cam_z,
@@ -98,6 +95,7 @@ class LKTracker(Tracker):
         self.ref = np.zeros((0, 3))  # (M, 3) reference shape for the rigid fit
         self.stale = np.zeros(0, dtype=bool)
         self._stale_frames: dict[int, int] = {}
+        self._support: dict[int, float] = {}  # element id -> anchors behind its fused points, last frame
         r = c.seed_search_px
         offs = np.arange(-r, r + 1, max(1, r // 3)) if r > 0 else np.zeros(1)
         du, dv = np.meshgrid(offs, offs)
@@ -113,6 +111,7 @@ class LKTracker(Tracker):
     def reset(self, obs: Observation, elements: list[Element]) -> None:
         self._anchors.clear()
         self._views.clear()
+        self._support = {}
         tracked = []
         for el in elements:
             if el.owner[0] in self.config.kinematic_owners:
@@ -156,6 +155,8 @@ class LKTracker(Tracker):
             fused = nanmean(per_view, observed)
         self._update_points(fused, ok)
         visible = {eid: int(observed[:, sl].any(axis=1).sum()) for eid, sl in self._slices.items()}
+        anchors = np.where(ok, np.isfinite(est[:, :, 0]).reshape(len(obs.views), m, K).sum(axis=(0, 2)), 0)
+        self._support = {eid: float(anchors[sl].sum()) for eid, sl in self._slices.items()}
         fresh = ~self.stale
         for name, view in obs.views.items():
             st = self._views[name]
@@ -337,7 +338,8 @@ class LKTracker(Tracker):
                 continue
             if new.id != eid:
                 raise PerceptionError(f"reacquire hook returned element {new.id} for element {eid}")
-            self._replace(obs, new)
+            self._replace(obs, new)  # this frame's position is a paint: its support is the paint's unhidden points
+            self._support[eid] = new.support.points * (1.0 - new.support.robot_hidden) if new.support else 0.0
 
     def _replace(self, obs: Observation, new: Element) -> None:
         """Swap in a re-detected element (any point count) and seed it in every view."""
@@ -385,12 +387,13 @@ class LKTracker(Tracker):
         points: dict[int, np.ndarray] = {}
         stale: dict[int, np.ndarray] = {}
         visible: dict[int, int] = {}
+        support = {eid: math.inf if eid in self._anchors else self._support.get(eid, 0.0) for eid in self._order}
         for eid in self._order:
-            if eid in self._anchors:
+            if eid in self._anchors:  # forward kinematics
                 points[eid], stale[eid], visible[eid] = self._anchors[eid].observe(obs)
             else:
                 sl = self._slices[eid]
                 points[eid] = self.P[sl].copy()
                 stale[eid] = self.stale[sl].copy()
                 visible[eid] = visible_tracked.get(eid, 0)
-        return TrackResult(obs.t, points, stale, visible)
+        return TrackResult(obs.t, points, stale, visible, support)

@@ -8,6 +8,8 @@ step maps them back with the current pose. End-effector elements follow forward 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from code_as_monitor.core.elements import Element
@@ -75,4 +77,4 @@ class SimTracker(Tracker):
         points = {eid: found[eid] for eid in self._order}  # the order elements were given in
         stale = {eid: np.zeros(len(p), dtype=bool) for eid, p in points.items()}
         visible = {eid: views_containing(obs, p) for eid, p in points.items()}
-        return TrackResult(obs.t, points, stale, visible)
+        return TrackResult(obs.t, points, stale, visible, {eid: math.inf for eid in points})  # exact motion

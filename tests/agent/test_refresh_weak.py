@@ -1,0 +1,92 @@
+"""The final check of a subgoal and an element at rest whose measurement from the subgoal start was weak.
+
+A block that does not move during the subgoal keeps its start measurement at the final check, unless that
+measurement's own support calls it weak (e.g. painted mostly through the robot's arm) and one from the static frame
+is not. The fake world: one block at rest at x = 0; the upon check asks for it within 1 cm of x = 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loop_fakes import Coder, History, MovePolicy, Planner, Runtime, World
+
+from code_as_monitor.agent.loop import Agent, AgentConfig
+from code_as_monitor.core import Constraint, Element, ElementSpec, Phase, Subgoal
+from code_as_monitor.core.constraints import Action
+from code_as_monitor.core.elements import ElementSupport
+from code_as_monitor.painter.painter import PaintResult, assign_element_ids
+
+WEAK = ElementSupport(points=135, views=3, residual=0.002, robot_hidden=0.74)
+STRONG = ElementSupport(points=130, views=3, residual=0.002, robot_hidden=0.0)
+RULES = {"centred": lambda P, t: all(abs(p[0, 0]) <= 0.01 for p in P.values())}
+
+
+class StartPainter:
+    """Paints the block 1.7 cm off (support ``start``) at the subgoal start; re-paints it where it is (``fresh``)."""
+
+    def __init__(self, start: ElementSupport, fresh: ElementSupport | None) -> None:
+        self.start, self.fresh, self.repaints = start, fresh, 0
+
+    def paint(self, obs, subgoal, known=None):
+        specs = assign_element_ids(subgoal)
+        els = [Element.point(i, s.name, [0.017, 0.0, 0.02], (s.obj, s.part)) for i, s in specs.items()]
+        for e in els:
+            e.support = self.start
+        return PaintResult(els, specs, {}, [], 0.0)
+
+    def build_element(self, obs, i, spec):
+        self.repaints += 1
+        if self.fresh is None:
+            return None
+        el = Element.point(i, spec.name, [0.0005, 0.0, 0.02], (spec.obj, spec.part))
+        el.support = self.fresh
+        return el
+
+
+class RestingTracker:
+    """The block never moves: every step reports the painted points."""
+
+    def __init__(self) -> None:
+        self.points: dict[int, np.ndarray] = {}
+
+    def reset(self, obs, elements) -> None:
+        self.points = {e.id: e.points.copy() for e in elements}
+
+    def set_reacquire(self, fn) -> None:
+        pass
+
+    def step(self, obs):
+        from loop_fakes import Track
+
+        return Track({i: p.copy() for i, p in self.points.items()}, {})
+
+
+def _run(start: ElementSupport, fresh: ElementSupport | None) -> tuple[str, list, StartPainter]:
+    w = World()
+    spec = ElementSpec("block", "block", "", "point")
+    sg = Subgoal("place next to it", [Constraint("centred", "the block is centred", Phase.UPON, [spec])],
+                 Action("move", {"obj": "arm"}))
+    events: list = []
+    painter = StartPainter(start, fresh)
+    agent = Agent(Planner([sg]), Coder(), painter, RestingTracker(), Runtime(RULES), History,
+                  AgentConfig(max_replans=0), on_event=lambda kind, **f: events.append((kind, f)))
+    ep = agent.run("place it", w, MovePolicy(w, speed=0.0, stop_at=0.0))
+    return ep.subgoals[0].outcome, events, painter
+
+
+def test_a_weak_start_measurement_of_a_resting_element_is_replaced_by_a_strong_fresh_one() -> None:
+    outcome, events, _ = _run(WEAK, STRONG)
+    assert outcome == "success"
+    re = [f for k, f in events if k == "element_remeasured"]
+    assert re and re[0]["robot_hidden_start"] == pytest.approx(0.74) and re[0]["shift"] == pytest.approx(0.0165)
+
+
+@pytest.mark.parametrize(("start", "fresh"), [(STRONG, STRONG), (WEAK, WEAK), (WEAK, None)],
+                         ids=["strong-start", "fresh-also-weak", "fresh-unseen"])
+def test_the_start_measurement_is_kept_unless_weak_and_the_fresh_one_is_not(start, fresh) -> None:
+    outcome, events, painter = _run(start, fresh)
+    assert outcome == "reactive_failure", "judged on the start measurement, 1.7 cm off"
+    assert not any(k == "element_remeasured" for k, _ in events)
+    if start is STRONG:
+        assert painter.repaints == 0, "a strong start measurement is not re-painted"
