@@ -11,6 +11,15 @@ import pytest
 from code_as_monitor.cli.main import main
 
 
+def _alarms_on(run_dir: Path, constraint_id: str) -> int:
+    """How many alarms the run's event log holds on ``constraint_id``."""
+    import json
+
+    lines = (run_dir / "events.jsonl").read_text().splitlines()
+    events = [json.loads(line) for line in lines]
+    return sum(1 for e in events if e.get("kind") == "alarm" and e.get("constraint_id") == constraint_id)
+
+
 def _entities(path: Path) -> Counter:
     from rerun.chunk import RrdReader
 
@@ -34,7 +43,9 @@ def test_run_saves_an_rrd_that_opens_offline(tmp_path: Path) -> None:
         assert ents[name] > 0, (name, sorted(ents))
     assert any(e.startswith("/world/elements/") for e in ents)
     assert ents["/checks/attached_blue_block/margin"] > 5, "a margin timeline per check"
-    assert ents["/checks/attached_blue_block/alarm"] == 1, "the drop's alarm marked on its check"
+    drops = _alarms_on(run_dir, "attached_blue_block")
+    assert drops >= 1, "the episode has a drop (p = 0.3)"
+    assert ents["/checks/attached_blue_block/alarm"] == drops, "each drop's alarm marked on its check"
 
 
 def test_rerun_without_the_extra_is_one_line_exit_2(tmp_path: Path, capsys, monkeypatch) -> None:
@@ -107,7 +118,8 @@ def test_connect_streams_the_run_to_a_running_rerun_server(tmp_path: Path) -> No
     for name in ("/views/front/image", "/world/end_effector", "/events/alarms"):
         assert ents[name] > 0, (name, sorted(ents))
     assert ents["/checks/attached_blue_block/margin"] > 5
-    assert ents["/checks/attached_blue_block/alarm"] == 1
+    drops = _alarms_on(run_dir, "attached_blue_block")
+    assert drops >= 1 and ents["/checks/attached_blue_block/alarm"] == drops
 
 
 @pytest.mark.parametrize("url", ["bogus://", "127.0.0.1:9876", "http://127.0.0.1:9876/proxy"])
