@@ -98,5 +98,13 @@ def test_pen_checks_decide_right_on_constructed_states(make_elements, run_progra
     assert r["inside_pen_holder"][0] and r["freed_pen"][0] and r["carried_pen"][0]
     missed = {**base, ("pen", "tip"): [0.58, -0.1, 0.1]}
     assert not run_program(src, make_elements(insert, missed))["over_pen_holder"][0]
+    # The opening's centre is (0.5, -0.1) at rim height 0.08: the tip must be within 1.9 cm while it enters
+    # (3 cm above to 2 cm below the rim); deeper in, the upon checks judge it.
+    def over(x: float, z: float) -> bool:
+        return run_program(src, make_elements(insert, {**base, ("pen", "tip"): [x, -0.1, z]}))["over_pen_holder"][0]
+    assert over(0.517, 0.09) and over(0.517, 0.07)  # 1.7 cm off, 1 cm above / below the rim: it enters
+    assert not over(0.523, 0.09) and not over(0.523, 0.07)  # 2.3 cm off in the window: it will hit the rim
+    assert over(0.523, 0.15)  # still high
+    assert over(0.523, 0.05)  # 3 cm below the rim: the upon checks judge it
     tilted = {**base, ("pen", "body"): [[0.42, 0.09, 0.2], [0.53, 0.09, 0.24]]}
     assert not run_program(src, make_elements(insert, tilted))["upright_pen"][0]

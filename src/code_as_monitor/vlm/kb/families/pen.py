@@ -52,9 +52,11 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # insert, during: it stays within 25 degrees of vertical while carried (a 14 cm pen tilted more than
     # that cannot enter a 5 cm opening from 4 cm above it).
     "upright_carried": {"max_tilt": 0.44},
-    # insert, during (proactive): once the pen tip is lower than 3 cm above the rim it must be within
-    # 1.5 cm (horizontally) of the opening's centre: the opening is 5 cm wide, the pen 1.2 cm.
-    "over": {"approach": 0.03, "max_offset": 0.015},
+    # insert, during (proactive): while the pen tip enters (from 3 cm above the rim to 2 cm below it, the
+    # depth the upon check asks for; deeper, the upon checks judge it) it must be within 1.9 cm
+    # (horizontally) of the opening's centre: the opening's inner half-size (2.5 cm) less the pen's
+    # half-width (0.6 cm), the farthest a vertical 1.2 cm pen's tip can be and still enter.
+    "over": {"approach": 0.03, "max_offset": 0.019, "deep": 0.02},
     # insert, upon: the tip within 3 cm of the opening's centre (a released pen leans into a corner of
     # the 5 x 5 cm opening, 3.5 cm from the centre at most) and at least 2 cm below the rim.
     "inside": {"max_offset": 0.03, "min_depth": 0.02},
@@ -153,8 +155,8 @@ def insert(obj: str, target: str) -> list[dict[str, Any]]:
         constraint(f"upright_{obj}", f"{nice(obj)} stays near vertical (its axis within 25 degrees of vertical) while it is "
            f"carried and inserted", "during", False, up, [_axis(obj)]),
         constraint(f"over_{target}", f"the tip of {nice(obj)} is above the opening of {nice(target)} (within "
-           f"{ov['max_offset'] * 100:.1f} cm of its centre) whenever it is lower than {ov['approach'] * 100:.0f} cm "
-           f"above the rim", "during", True, ov, [_end(obj), _opening(target)]),
+           f"{ov['max_offset'] * 100:.1f} cm of its centre) while it enters, from {ov['approach'] * 100:.0f} cm above "
+           f"the rim to {ov['deep'] * 100:.0f} cm below it", "during", True, ov, [_end(obj), _opening(target)]),
         constraint(f"inside_{target}", f"the tip of {nice(obj)} is inside the opening of {nice(target)}, at least "
            f"{ins['min_depth'] * 100:.0f} cm below the rim", "upon", False, ins, [_end(obj), _opening(target)]),
         constraint(f"freed_{obj}", f"{nice(obj)} is released: the grasp point at least {fr['release_dist'] * 100:.0f} cm "
@@ -198,15 +200,16 @@ def carried(c: Spec) -> str:
 
 
 def over(c: Spec) -> str:
-    """Parts: [object end (point), opening (surface)]. Low above the rim means centred over the opening."""
+    """Parts: [object end (point), opening (surface)]. Entering the opening (the end between ``approach``
+    above the rim and ``deep`` below it) means centred over it; deeper in, the upon checks judge it."""
     end, rim = c["element_ids"][:2]
     th, en, rn = c["thresholds"], obj_name(c, 0), obj_name(c, 1)
-    ap, mo = num(th["approach"]), num(th["max_offset"])
+    ap, mo, dd = num(th["approach"]), num(th["max_offset"]), num(th["deep"])
     body = f"""
     h = centroid(E[{end}])[2] - centroid(E[{rim}])[2]
     off = horizontal_distance(E[{end}], centroid(E[{rim}]))
-    margin = np.max([h - {ap}, {mo} - off])
-    if h >= {ap} or off <= {mo}:
+    margin = np.max([h - {ap}, {mo} - off, -h - {dd}])
+    if h >= {ap} or off <= {mo} or h < -{dd}:
         return True, {lit(en + " tip is above the opening of " + rn + " or still high (offset %.3f m, %.3f m above the rim)")} % (off, h), margin
     return False, {lit(en + " tip is %.3f m above the rim but offset %.3f m from the opening of " + rn + ": not above the opening, it will miss it")} % (h, off), margin
 """
