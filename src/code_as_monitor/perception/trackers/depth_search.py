@@ -166,8 +166,8 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
             g = at_guess[i]
             assert g is not None
-            if _score(g) > _score(sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
-                T, sup = T0, g  # made worse, or turned further than a body turns between two frames
+            if _score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
+                T, sup = T0, g  # did not clearly improve, or turned further than a body turns between two frames
             if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
             if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
@@ -179,6 +179,14 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
         if best is not None:
             return best
     return best
+
+def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
+    """Whether a guessed pose's evidence is as good as the registered pose's: at least ``unmoved_seen`` of its
+    seen points and no more contradicted ones. The registration must then not move the body: a move the
+    frame does not ask for is one along a direction it barely constrains (a block whose top the next block
+    hides slides up its side faces, pulled toward the upper block's top, seeing one point more)."""
+    return guess.seen >= c.unmoved_seen * registered.seen and guess.contradicted <= registered.contradicted
+
 
 def _as_good_as_last(c: DepthTrackerConfig, body: BodyState, sup: Support) -> bool:
     """Whether ``sup`` is as much evidence as the body's last good pose had (the search may stop)."""
