@@ -189,4 +189,3 @@ def test_depth_config_validation():
         DepthTrackerConfig(min_seen_frac=1.5)
     with pytest.raises(ConfigError, match="unknown option"):
         TrackerConfig.from_name("depth", icp="fast")
-

@@ -166,8 +166,10 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
             g = at_guess[i]
             assert g is not None
-            if _score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation:  # keep a guess the registration
-                T, sup = T0, g  # did not clearly improve, or turned further than a body turns between two frames
+            # keep a guess the registration did not clearly improve, or turned further than a body turns
+            # between two frames
+            if _score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation:
+                T, sup = T0, g
             if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
             if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
