@@ -180,6 +180,16 @@ def test_coder_views_lossless_and_one_image_when_they_fit():
         ("front", "high", (480, 640, 3)), ("top", "low", (240, 320, 3))]
 
 
+def test_coder_without_views_sends_the_request_alone_and_says_so():
+    sg = _subgoal()
+    small = {"front": np.zeros((240, 320, 3), np.uint8)}
+    with_views = MonitorCoder(Scripted(GOOD_PROGRAM)).build_messages(sg, _elements(sg), small)
+    without = MonitorCoder(Scripted(GOOD_PROGRAM), views=False).build_messages(sg, _elements(sg), small)
+    assert len(with_views[1].images) == 1 and "Image:" in with_views[0].text
+    assert not without[1].images and "Image:" not in without[0].text
+    assert without[1].text == with_views[1].text.split("\nView")[0]  # the same request, no view label
+
+
 def test_coder_reuses_an_accepted_program_for_the_same_request():
     sg = _subgoal()
     els = _elements(sg)

@@ -352,3 +352,23 @@ def test_kb_unknown_instruction_is_a_clear_error():
     for task in ("stack-in-order", "sweep-half", "rope-close-square", "slot-pen", "stow-book", "pour-tea",
                  "open-drawer"):
         assert task in str(info.value)
+
+
+def test_compact_answer_leaves_out_only_what_the_schema_fills_in():
+    import json
+
+    from code_as_monitor.vlm.kb import compact_answer
+    from code_as_monitor.vlm.kb.planner import next_subgoal
+    from code_as_monitor.vlm.schemas import parse_generator_output
+
+    objects = infer_objects(STACK)
+    previous = {"text": "pick up the green block", "done": False,
+                "action": {"skill": "pick", "args": {"obj": "green_block"}}}
+    full = next_subgoal({"instruction": STACK, "objects": objects, "previous_subgoal": previous,
+                         "feedback": "success"})
+    short = compact_answer(full)
+    assert len(json.dumps(short)) < len(json.dumps(full))
+    assert '"part": ""' not in json.dumps(short) and '"proactive": false' not in json.dumps(short)
+    assert any(c.get("proactive") for c in short["constraints"])  # a true flag stays
+    ctx = {"objects": [*objects, "robot"], "skills": ["pick", "place_on"]}
+    assert parse_generator_output(short, ctx).to_subgoal() == parse_generator_output(full, ctx).to_subgoal()

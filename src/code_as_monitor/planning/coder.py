@@ -34,7 +34,7 @@ from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
 from code_as_monitor.vlm.messages import Message, TextPart, view_parts
 from code_as_monitor.vlm.parsing import dump_request, strip_code_fences
 from code_as_monitor.vlm.schemas import program_json_schema
-from code_as_monitor.vlm.templates import PROMPT_VERSION, render
+from code_as_monitor.vlm.templates import PROMPT_VERSION, placeholders, render
 from code_as_monitor.vlm.usage import UsageMeter
 
 log = logging.getLogger(__name__)
@@ -42,6 +42,8 @@ log = logging.getLogger(__name__)
 PURPOSE = "monitor_coder"
 PROGRAM_SCHEMA = program_json_schema()
 """The structured answer's JSON schema (``{"program": source}``), for servers with structured outputs."""
+IMAGE_LINE = " Image: the views, each element drawn with its id."
+"""What the coder's system prompt (v4) says of the image, when the annotated views are sent."""
 
 
 def program_text(answer: str) -> str:
@@ -174,11 +176,15 @@ class MonitorCoder:
             subgoal re-planned word for word after a failure), run ``check`` on the kept program before asking
             the model; the program reads only the elements, so the same request needs the same program. A kept
             program that ``check`` now rejects is dropped and the model is asked as usual.
+        views: send the annotated views (the paper's coder sees them; default). False sends the request alone:
+            the legend names every numbered element, so a coder that writes from the legend needs no image
+            (saves one image per call: 85 estimated tokens for the default views).
     """
 
     def __init__(self, backend: VLMBackend, *, usage: UsageMeter | None = None,
-                 prompt_version: str = PROMPT_VERSION, reuse: bool = True) -> None:
+                 prompt_version: str = PROMPT_VERSION, reuse: bool = True, views: bool = True) -> None:
         self.backend = backend
+        self.views = views
         self.usage = usage if usage is not None else UsageMeter()
         self.prompt_version = prompt_version
         self.reuse = reuse
@@ -192,13 +198,17 @@ class MonitorCoder:
                        feedback: str | None = None) -> list[Message]:
         """System and user messages: the user message carries the ```json request block (:func:`coder_request`)
         and the annotated views without losing a pixel (:func:`view_parts`: stacked into one low-detail image when
-        they fit in 512 x 512, else each at the cheapest lossless detail), so the labels stay as legible as drawn."""
+        they fit in 512 x 512, else each at the cheapest lossless detail), so the labels stay as legible as drawn; none
+        when ``views`` is off."""
         if not subgoal.constraints:
             raise ConfigError(f"subgoal {subgoal.text!r} has no constraints to monitor")
         request = coder_request(subgoal, elements, feedback)
         user = render("monitor_coder_user", self.prompt_version, request=dump_request(request))
-        system = render("monitor_coder", self.prompt_version)
-        return [Message.system(system), Message("user", [TextPart(user), *view_parts(annotated_images)])]
+        image = {"image": IMAGE_LINE if self.views else ""} if "image" in placeholders("monitor_coder",
+                                                                                         self.prompt_version) else {}
+        system = render("monitor_coder", self.prompt_version, **image)
+        images = view_parts(annotated_images) if self.views else []
+        return [Message.system(system), Message("user", [TextPart(user), *images])]
 
     def write_program(
         self,

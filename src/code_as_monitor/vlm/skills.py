@@ -12,82 +12,36 @@ from collections.abc import Iterable
 from code_as_monitor.core.errors import ConfigError
 
 DEFAULT_SKILLS: dict[str, str] = {
-    "pick": 'args {"obj": name}: approach above the object, descend to contact, suction on, lift to carry height',
-    "place_on": (
-        'args {"obj": name, "target": name or "table", "xy": [x, y] optional}: carry the held object above '
-        "the target, descend, release, retreat up"
-    ),
-    "push_into_region": (
-        'args {"region": name}: repeated spatula pushes of the blocks outside the region towards it, until '
-        "none is left (it never stops by itself)"
-    ),
-    "close_shape": (
-        'args {"rope": name, "shape": name}: repeated adjustments of rope beads towards the opening of the '
-        "shape (it never stops by itself)"
-    ),
-    "grasp": (
-        'args {"obj": name, "part": part optional}: open the gripper, descend over the part with the jaws '
-        "across the object's long axis, close, lift to carry height"
-    ),
-    "reorient": (
-        'args {"obj": name, "axis": "vertical"}: tilt the held object until its long axis points straight '
-        "down, tip first"
-    ),
-    "insert": (
-        'args {"obj": name, "target": name}: carry the held object\'s lower end above the target\'s opening, '
-        "lower it in, open the gripper, retreat"
-    ),
-    "stow": (
-        'args {"obj": name, "target": name}: carry the held upright object (a book) above the target\'s slot, '
-        "lower it in, open the gripper, retreat"
-    ),
-    "pull": (
-        'args {"obj": name, "distance": metres}: pull the grasped handle straight out along the drawer\'s axis by '
-        "the distance, open the gripper, retreat"
-    ),
-    "transport": (
-        'args {"obj": name, "target": name}: carry the held object (a teapot) at its current tilt until its spout '
-        "is above the target (a cup)"
-    ),
-    "pour": (
-        'args {"obj": name, "target": name}: tilt the held teapot forward past the pour angle, its spout\'s end '
-        "moving down to just above the target's opening"
-    ),
-    "drain": (
-        'args {"obj": name, "target": name}: hold the tilted teapot still for a few seconds while the tea runs out'
-    ),
-    "level": 'args {"obj": name}: turn the wrist until the held object stands level (its top horizontal)',
-    "set_down": (
-        'args {"obj": name}: carry the held object to a free spot of the table away from the cup, lower it until '
-        "it almost touches, open the gripper, lift"
-    ),
-    "put_in": (
-        'args {"obj": name, "target": name}: carry the held object above the open part of the target drawer\'s '
-        "tray, lower it to just above the tray's floor, open the gripper, retreat"
-    ),
-    "screw": (
-        'args {"obj": name, "turns": number}: turn the grasped bulb clockwise into its socket in a few strokes '
-        "(re-grasping between them), open the gripper, retreat"
-    ),
-    "turn": (
-        'args {"obj": name, "part": handle, "angle": degrees}: turn the grasped tap handle about its hinge by the '
-        "angle, open the gripper, retreat"
-    ),
-    "drag": (
-        'args {"obj": name, "target": name, "goal": name}: lower the held stick on the table beyond the target '
-        "object and pull it until the object is on the goal, put the stick down, retreat"
-    ),
-    "sweep": (
-        'args {"obj": name, "target": name}: lower the held broom\'s head behind the loose pieces and push them '
-        "into the target (a dustpan), lift, keep holding the broom"
-    ),
+    "pick": "{obj}: descend onto the object, suction on, lift",
+    "place_on": '{obj, target (name or "table"), xy optional}: carry the held object above the target, lower, '
+                "release, retreat",
+    "push_into_region": "{region}: spatula pushes of the blocks outside the region towards it (never stops itself)",
+    "close_shape": "{rope, shape}: moves rope beads towards the shape's opening (never stops itself)",
+    "grasp": "{obj, part optional}: close the gripper across the object's long axis at the part, lift",
+    "reorient": '{obj, axis: "vertical"}: tilt the held object until its long axis points down, tip first',
+    "insert": "{obj, target}: lower the held object's lower end into the target's opening, release, retreat",
+    "stow": "{obj, target}: lower the held upright object (a book) into the target's slot, release, retreat",
+    "pull": "{obj, distance (m)}: pull the grasped handle out along the drawer's axis, release, retreat",
+    "transport": "{obj, target}: carry the held teapot at its tilt until its spout is above the target (a cup)",
+    "pour": "{obj, target}: tilt the held teapot past the pour angle, spout end down to just above the target",
+    "drain": "{obj, target}: hold the tilted teapot still a few seconds while the tea runs out",
+    "level": "{obj}: turn the wrist until the held object stands level (top horizontal)",
+    "set_down": "{obj}: put the held object on a free spot of the table away from the cup, release, lift",
+    "put_in": "{obj, target}: lower the held object into the open tray of the target drawer, release, retreat",
+    "screw": "{obj, turns}: turn the grasped bulb clockwise into its socket (re-grasping between strokes), "
+             "release, retreat",
+    "turn": "{obj, part: handle, angle (degrees)}: turn the grasped tap handle about its hinge, release, retreat",
+    "drag": "{obj, target, goal}: with the held stick, pull the target object onto the goal, put the stick "
+            "down, retreat",
+    "sweep": "{obj, target}: push the loose pieces into the target (a dustpan) with the held broom's head, lift, "
+             "keep holding",
 }
-"""Skill name -> one-line description of its arguments and behaviour."""
+"""Skill name -> its argument keys (values: object names unless said) and what it does, in one short line."""
 
 
 def skills_markdown(skills: dict[str, str]) -> str:
     """The skills as a Markdown bullet list for the prompt."""
-    return "\n".join(f"- `{name}`: {doc}" for name, doc in skills.items())
+    return "\n".join(f"- `{name}` {doc}" for name, doc in skills.items())
 
 
 def skill_table(names: Iterable[str] | None) -> dict[str, str]:

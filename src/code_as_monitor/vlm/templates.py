@@ -12,7 +12,7 @@ from importlib import resources
 
 from code_as_monitor.core.errors import ConfigError
 
-PROMPT_VERSION = "v3"
+PROMPT_VERSION = "v4"
 _PLACEHOLDER = re.compile(r"\{\{([a-z_]+)\}\}")
 
 
