@@ -22,7 +22,8 @@ Without views (:func:`fit_element_points`), step 2 keeps the observed box.
 
 Every element built from masks carries its cloud (capped at ``MAX_CLOUD_POINTS``) and an
 :class:`~code_as_monitor.core.elements.ElementSupport` (points, views, the box residual, extents, assumed
-sides and the uncertainty they leave, and the fraction of its box the robot hides when the views carry robot masks: :mod:`~.occlusion`).
+sides and the uncertainty they leave, and the fraction of its box the robot hides when the views carry robot
+masks: :mod:`~.occlusion`).
 End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
 """
 
