@@ -131,8 +131,8 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
             others = [ext[b] for b in range(3) if b != a]
             missing = max(0.0, min(others) - ext[a] - out.grown[~out.hidden[:, a], a].sum())
             out.grown[out.hidden[:, a], a] = missing / int(out.hidden[:, a].sum())
-    a = min(grow_axes, key=lambda b: ext[b]) if grow_axes else None
-    if a is not None and not out.hidden[:, a].any():  # the depth of a compact solid: see _assume_depth
+    a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
+    if a in grow_axes and not out.hidden[:, a].any():  # the depth of a compact solid: see _assume_depth
         prior = min(ext[b] for b in range(3) if b != a)
         if _spread(box, a, points) < FACE_ALONE * prior:
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
