@@ -33,6 +33,7 @@ import sys
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
+from itertools import pairwise
 
 import numpy as np
 
@@ -40,9 +41,11 @@ from code_as_monitor.bench.element_truth import PartTruth, element_errors, part_
 from code_as_monitor.core import Constraint, ElementSpec, Observation, Phase, Subgoal, View
 from code_as_monitor.painter import Painter
 from code_as_monitor.perception import SegmenterConfig, make_segmenter
+from code_as_monitor.planning import ConstraintGenerator, legend_specs
 from code_as_monitor.sim.cameras import CameraSpec, SimCamera
 from code_as_monitor.sim.env import make_env
 from code_as_monitor.sim.tasks import task_names
+from code_as_monitor.vlm.backend import VLMBackendConfig, make_backend
 
 W, H = 320, 240
 SHOULDERS = (
@@ -53,27 +56,27 @@ VIEW_SETS = {"default": ("front", "top"), "shoulders": ("shoulder_left", "should
 NOISES_MM = (0.0, 2.0)
 TWO_VIEW_SETS = ("default", "shoulders")
 MAX_SNAPSHOTS_PER_ACTION = 3
+MAX_SUBGOALS = 30
 
 
-def task_specs(task: str, world) -> list[ElementSpec]:
-    """The elements the kb's monitors use for ``task`` (object, part, kind)."""
-    objs = world.objects
-    if task == "stack-in-order":
-        return [ElementSpec(n, n, "", "point") for n in objs if n.endswith("_block")]
-    if task == "sweep-half":
-        return [ElementSpec("zone", "zone", "surface", "surface")] + [
-            ElementSpec(n, n, "", "point") for n in objs if n not in ("table", "zone")]
-    if task == "rope-close-square":
-        return [ElementSpec(c, "square", c, "point") for c in ("corner_0", "corner_3")] + [
-            ElementSpec(b, "rope", b, "point") for b in objs["rope"].parts]
-    table = {
-        "slot-pen": [("pen", "body", "line"), ("pen", "tip", "point"), ("pen_holder", "rim", "surface")],
-        "stow-book": [("book", "cover", "point"), ("book", "spine", "line"), ("bookshelf", "slot", "surface")],
-        "pour-tea": [("teapot", "handle", "point"), ("teapot", "lid", "surface"), ("teapot", "spout", "point"),
-                     ("teacup", "rim", "surface")],
-        "open-drawer": [("drawer_cabinet", p, "point") for p in ("handle", "drawer", "frame")],
-    }
-    return [ElementSpec(f"{o} {p}", o, p, k) for o, p, k in table[task]]
+def task_specs(env) -> list[ElementSpec]:
+    """The elements the kb's monitors use for ``env``'s task: the parts of every constraint of the kb's plan for
+    the task's instruction when each subgoal succeeds (the kb is the rule-based stand-in for the VLM, planning
+    from the instruction and the scene's object names as the agent does), in first-use order, less the robot's
+    (built from forward kinematics, not from masks)."""
+    gen = ConstraintGenerator(make_backend(VLMBackendConfig.from_name("kb")))
+    objects = env.world.observe(render=False).objects
+    specs: dict[tuple[str, str, str], ElementSpec] = {}
+    previous = None
+    for _ in range(MAX_SUBGOALS):
+        sg = gen.next_subgoal(env.instruction, {}, objects, previous, None)
+        if sg.done:
+            break
+        for s in legend_specs(sg):
+            if s.obj != "robot":
+                specs.setdefault((s.obj, s.part, s.kind.value), s)
+        previous = sg
+    return list(specs.values())
 
 
 @dataclass
@@ -104,7 +107,8 @@ def _centred_tower(env, cams, specs, seed: int) -> Scene:
     import pybullet as pb
 
     w = env.world
-    names = [s.obj for s in specs]
+    blocks = {s.obj: i for i, s in enumerate(specs) if s.obj.endswith("_block") and not s.part}
+    names = [n for n in w.objects if n in blocks]  # bottom to top in the world's object order
     base = w.objects[names[0]].bodies[0]
     pos, orn = pb.getBasePositionAndOrientation(base, physicsClientId=w.client)
     size = part_truth(w, names[0]).extent[2]
@@ -112,7 +116,7 @@ def _centred_tower(env, cams, specs, seed: int) -> Scene:
         pb.resetBasePositionAndOrientation(w.objects[n].bodies[0], [pos[0], pos[1], size / 2 + k * size], orn,
                                            physicsClientId=w.client)
     return _scene("stack-in-order", seed, "centred_tower", w, cams, specs,
-                  pairs=[(k, k + 1) for k in range(len(names) - 1)])
+                  pairs=[(blocks[lo], blocks[hi]) for lo, hi in pairwise(names)])
 
 
 def task_scenes(task: str, seed: int, every: float) -> list[Scene]:
@@ -120,7 +124,7 @@ def task_scenes(task: str, seed: int, every: float) -> list[Scene]:
     with make_env(task, seed=seed, disturbed=False) as env:
         w = env.world
         cams = [*w.cameras, *(SimCamera(s, w.client, w.renderer) for s in SHOULDERS)]
-        specs = task_specs(task, w)
+        specs = task_specs(env)
         out = [_scene(task, seed, "scattered", w, cams, specs)]
         for action in env.plan:
             env.policy.start(action)

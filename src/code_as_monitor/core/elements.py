@@ -97,8 +97,9 @@ class ElementSupport:
             kind: see :mod:`code_as_monitor.geometry.elements`), i.e. how well the model explains them.
         spread: metres; half the largest extent of the cloud (how big the part looked).
         extent: (3,) metres; the part's fitted size along its own axes (largest first).
-        assumed: how many sides of the part's box no view bounded: their depth is an assumption (the part's
-            largest observed extent), not a measurement (a block under another one seen from the front only).
+        assumed: how many sides of the part's box no view bounded: their depth is an assumption (as deep as the
+            smaller of the part's other two extents: a compact solid), not a measurement (a block under another one
+            seen from the front only; a block in a tower seen on one face alone).
         part_seen: False when no view saw the element's part and the whole object's masks stood in for it.
         robot_hidden: fraction (0..1) of the pixels the part's box covers in the views where the robot's own body
             is in front of it (0 when the segmenter cannot tell the robot): an element painted mostly through the
@@ -109,6 +110,9 @@ class ElementSupport:
             position resting on in any frame since it was last measured (``inf``: it is a measurement, or it was
             moved by a tracker whose motion is exact, the oracle's): a tracked estimate is no better supported than
             its tracker's weakest frame (:func:`~code_as_monitor.painter.carry_over.evidence`).
+        uncertainty: metres; how far the views let the element's centre lie from where it is painted because of
+            its assumed sides (:attr:`code_as_monitor.geometry.solid.Box.uncertainty`); 0 when a view bounds every
+            side (then only the depth noise and the fit, ``residual``, limit it).
     """
 
     points: int
@@ -121,12 +125,13 @@ class ElementSupport:
     robot_hidden: float = 0.0
     carried: bool = False
     tracked: float = math.inf
+    uncertainty: float = 0.0
 
     def to_dict(self) -> dict:
         d = {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
              "spread": round(self.spread, 5), "extent": [round(float(x), 5) for x in self.extent],
              "assumed": self.assumed, "part_seen": self.part_seen, "robot_hidden": round(self.robot_hidden, 3),
-             "carried": self.carried}
+             "carried": self.carried, "uncertainty": round(self.uncertainty, 4)}
         if math.isfinite(self.tracked):  # JSON has no infinity: absent means a measurement
             d["tracked"] = round(float(self.tracked), 3)
         return d
@@ -137,7 +142,7 @@ class ElementSupport:
         return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
                    (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)),
                    float(d.get("robot_hidden", 0.0)), bool(d.get("carried", False)),
-                   float(d.get("tracked", math.inf)))
+                   float(d.get("tracked", math.inf)), float(d.get("uncertainty", 0.0)))
 
     def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004,
              max_robot_hidden: float | None = None) -> bool:

@@ -39,6 +39,10 @@ COARSE_SLABS = 16
 GROW_LIMIT = 2.0
 """A side grows at most this many times the part's largest observed extent; one that gets there unbounded is
 hidden from every view, and the part is then taken to be as deep as the smaller of its other two extents."""
+FACE_ALONE = 0.25
+"""An axis along which the points span less than this fraction of the smaller of the other two extents is seen on
+one face alone (a face's points span only the depth noise along its normal; a solid seen on two faces spans its
+whole extent): its depth is then the compact-solid assumption, bounded by the face's interior carving."""
 
 
 
@@ -78,7 +82,8 @@ def _face_samples(box: Box, axis: int, n: int, inset: float, margin: float = 0.0
 
 
 def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
-          grow_axes: Sequence[int] = (0, 1, 2), max_grow: float | None = None) -> Box:
+          grow_axes: Sequence[int] = (0, 1, 2), max_grow: float | None = None,
+          points: np.ndarray | None = None) -> Box:
     """Push the box's hidden sides outwards through space no view sees (step 3 of the module docstring).
 
     Args:
@@ -86,7 +91,10 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
         views: the part's views (mask, depth, camera).
         support: optional support plane (:func:`~.support.support_plane`); nothing grows below it.
         grow_axes: which axes may grow (a surface keeps its observed thickness).
-        max_grow: metres; the most a side may grow (default: the largest observed extent).
+        max_grow: metres; the most a side may grow (default: :data:`GROW_LIMIT` x the largest observed extent).
+        points: optional (N, 3) world metres, the part's cloud the box was fitted to: whether its thinnest axis
+            is seen on one face alone is judged on the central 90 % of the points along it (a few grazing points
+            on a side face do not make a second face), else on the box's extent.
     Returns:
         A new box with ``grown`` and ``hidden`` filled in.
     """
@@ -117,23 +125,89 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
                 grown[k] = float(offs[first - 1])
     for (a, sgn), g in zip(sides, grown):
         out.grown[1 if sgn > 0 else 0, a] = g
+    out.room[out.hidden] = cap
     for a in range(3):  # unbounded sides: the part is as deep as the smaller of its other two extents
         if out.hidden[:, a].any():
             others = [ext[b] for b in range(3) if b != a]
             missing = max(0.0, min(others) - ext[a] - out.grown[~out.hidden[:, a], a].sum())
             out.grown[out.hidden[:, a], a] = missing / int(out.hidden[:, a].sum())
+    a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
+    if a in grow_axes and not out.hidden[:, a].any():  # the depth of a compact solid: see _assume_depth
+        prior = min(ext[b] for b in range(3) if b != a)
+        if _spread(box, a, points) < FACE_ALONE * prior:
+            _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
+        elif ext[a] + out.grown[:, a].sum() > (1.0 + FACE_ALONE) * prior:
+            _assume_depth(out, ext, a, out.grown[:, a].copy())
     out.lo -= out.grown[0]
     out.hi += out.grown[1]
     return out
 
 
+def _spread(box: Box, a: int, points: np.ndarray | None) -> float:
+    """Metres: the span of the central 90 % of ``points`` (N, 3) along ``box.axes[a]`` (the box's extent there
+    without points)."""
+    if points is None or len(points) < 10:
+        return float(box.extent[a])
+    s = np.asarray(points, dtype=np.float64) @ box.axes[a]
+    lo, hi = np.percentile(s, [5.0, 95.0])
+    return float(hi - lo)
+
+
+def _interior_room(box: Box, views: Sequence[CarveView], support: SupportPlane | None, tol: float,
+                   a: int, step: float, K: int) -> np.ndarray:
+    """(2,) metres (lo side, hi side): how far the interior of the face across axis ``a`` may grow as far as the
+    views tell (see :func:`_assume_depth`); ``K`` slabs of ``step`` metres, refined to :data:`FINE_STEP`."""
+    offsets = step * np.arange(1, K + 1)
+    sides = [(a, -1), (a, 1)]
+    coarse = _slabs_blocked(box, views, support, tol, [(a, sgn, offsets) for a, sgn in sides], SHELL)
+    room = []
+    for (a, sgn), bad in zip(sides, coarse):
+        first = int(np.argmax(bad)) if bad.any() else K
+        lo_ok = 0.0 if first == 0 else float(offsets[first - 1])
+        if first < K and step > FINE_STEP:
+            offs = lo_ok + FINE_STEP * np.arange(1, int(step / FINE_STEP))
+            fine = _slabs_blocked(box, views, support, tol, [(a, sgn, offs)], SHELL)[0]
+            k = int(np.argmax(fine)) if fine.any() else len(offs)
+            lo_ok = float(offs[k - 1]) if k > 0 else lo_ok
+        room.append(lo_ok)
+    return np.array(room)
+
+
+def _assume_depth(out: Box, ext: np.ndarray, a: int, room: np.ndarray) -> None:
+    """Give the part's thinnest axis ``a`` the compact-solid depth, in place on ``out``, where the views leave it
+    open: when that axis is seen on one face alone (below), or when the carving let it grow deeper than the
+    part's other two extents (``room`` is then that growth: a side carved until some view happened to see past
+    it, far behind a block whose back a neighbour hides, is an upper bound, not a measurement), by more than
+    :data:`FACE_ALONE` of them (less is within what noise and the outline's pixels do to a fully seen solid).
+
+    A face seen alone (the blocks in the middle of a tower, whose neighbours hide their tops and bottoms and whose
+    backs face away) bounds nothing behind it: the carving of the whole face stops where a neighbour flush with
+    its border begins (another object's surface within :data:`SHELL` of a sample near the border), or where a
+    one-pixel-too-wide outline sees past the solid, and it runs on far beyond the solid where a neighbour hides the
+    space behind it. What the views do prove is the room the face's *interior* (its samples at least
+    :data:`SHELL` in from the face's border, ``rooms``) has before a view sees past it, another surface is within
+    :data:`SHELL`, or the support plane is met. The depth is then the compact-solid assumption, as deep as the
+    smaller of the other two extents, clamped between the observed depth and the observed depth plus that room,
+    shared between the two sides in proportion to their room (the side facing the views has none). Those sides
+    are ``assumed``; their room is recorded for the element's uncertainty."""
+    r = np.maximum(room, out.grown[:, a])
+    if r.sum() <= 0.0:
+        return
+    prior = min(ext[b] for b in range(3) if b != a)
+    share = min(max(prior - ext[a], 0.0), float(r.sum())) * r / r.sum()
+    out.grown[:, a] = share
+    out.room[:, a] = r
+    out.assumed[:, a] = share > FINE_STEP
+
+
 def _slabs_blocked(box: Box, views: Sequence[CarveView], support: SupportPlane | None, tol: float,
-                   jobs: Sequence[tuple[int, int, np.ndarray]]) -> list[np.ndarray]:
+                   jobs: Sequence[tuple[int, int, np.ndarray]], border: float = 0.0) -> list[np.ndarray]:
     """For each job ``(axis, sign, offsets (K,))``: (K,) bool, True where the slab that far beyond that side of
-    the box is not hidden (see :func:`carve`)."""
+    the box is not hidden (see :func:`carve`); the slab's samples are at least ``border`` metres in from the
+    face's border (and one pixel, :data:`PIXEL_MARGIN`)."""
     n = CARVE_GRID
     blocks = []
-    margin = PIXEL_MARGIN * max(_pixel_size(v.camera, box.centre) for v in views)
+    margin = max(border, PIXEL_MARGIN * max(_pixel_size(v.camera, box.centre) for v in views))
     for a, sgn, offs in jobs:
         base = _face_samples(box, a, n, CARVE_INSET, margin)
         edge = box.hi[a] if sgn > 0 else box.lo[a]

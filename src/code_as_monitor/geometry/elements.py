@@ -22,7 +22,8 @@ Without views (:func:`fit_element_points`), step 2 keeps the observed box.
 
 Every element built from masks carries its cloud (capped at ``MAX_CLOUD_POINTS``) and an
 :class:`~code_as_monitor.core.elements.ElementSupport` (points, views, the box residual, extents, assumed
-sides, and the fraction of its box the robot hides when the views carry robot masks: :mod:`~.occlusion`).
+sides and the uncertainty they leave, and the fraction of its box the robot hides when the views carry robot
+masks: :mod:`~.occlusion`).
 End-effector elements skip all this: :func:`ee_element` builds them from forward kinematics.
 """
 
@@ -168,7 +169,7 @@ def fit_part(
     box = fit_box(Q, voxel) if support is None else fit_box(Q, voxel, noise=support.noise, up=support.normal)
     thin = int(np.argmin(box.extent))
     grow = [a for a in range(3) if not (kind is ElementKind.SURFACE and a == thin)]
-    box = carve(box, views, support, grow)
+    box = carve(box, views, support, grow, points=Q)
     return element_points(Q, box, kind, voxel, thin), box
 
 
@@ -221,7 +222,8 @@ def build_element_from_clouds(
     hidden = robot_hidden_fraction(box, [OccluderView(v.depth, v.camera, v.robot, _own(v)) for v in views]) \
         if any(v.robot is not None for v in views) else 0.0
     sup = ElementSupport(len(Q), int(nviews), box.residual(Q), float(ext[0] / 2.0),
-                         (float(ext[0]), float(ext[1]), float(ext[2])), int(box.hidden.sum()), robot_hidden=hidden)
+                         (float(ext[0]), float(ext[1]), float(ext[2])), int((box.hidden | box.assumed).sum()),
+                         robot_hidden=hidden, uncertainty=box.uncertainty)
     return Element(id, spec.name, spec.kind, pts, (spec.obj, spec.part), color_for(id),
                    cloud=cap_cloud(Q, MAX_CLOUD_POINTS, vs), support=sup)
 

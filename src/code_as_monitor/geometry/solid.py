@@ -52,7 +52,10 @@ RANSAC_SCORE_POINTS = 400
 class Box:
     """An oriented box: ``axes`` (3, 3) rows (right-handed), ``lo``/``hi`` (3,) the box's ends as coordinates
     ``p @ axes.T`` (metres), ``noise`` the estimated depth noise (metres), ``grown`` (2, 3) metres each side
-    (row 0: lo, row 1: hi) moved outwards by carving, ``hidden`` (2, 3) True for a side no view bounded."""
+    (row 0: lo, row 1: hi) moved outwards by carving, ``hidden`` (2, 3) True for a side no view bounded,
+    ``assumed`` (2, 3) True for a side whose growth is the compact-solid assumption (a face seen alone; see
+    :func:`~.carve.carve`), and ``room`` (2, 3) metres, for a hidden or assumed side, the most it could grow as far
+    as the views tell (the growth limit for a hidden one)."""
 
     axes: np.ndarray
     lo: np.ndarray
@@ -60,6 +63,8 @@ class Box:
     noise: float = 0.0
     grown: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
     hidden: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=bool))
+    assumed: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=bool))
+    room: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
 
     @property
     def centre(self) -> np.ndarray:
@@ -70,6 +75,16 @@ class Box:
     def extent(self) -> np.ndarray:
         """(3,) metres along ``axes``."""
         return self.hi - self.lo
+
+    @property
+    def uncertainty(self) -> float:
+        """Metres: how far the views let the centre lie from :attr:`centre` because of the sides whose depth is
+        assumed (hidden or ``assumed``): per axis, half the larger of (the assumed growth) and (the room left
+        beyond it), the axes combined as a vector; 0 when a view bounds every side."""
+        guess = self.hidden | self.assumed
+        g = np.where(guess, self.grown, 0.0).sum(axis=0)
+        r = np.where(guess, np.maximum(self.room - self.grown, 0.0), 0.0).sum(axis=0)
+        return float(np.linalg.norm(np.maximum(g, r) / 2.0))
 
     def residual(self, points: np.ndarray) -> float:
         """RMS distance (metres) of ``points`` (N, 3) to the box's surface: how well it explains them."""
