@@ -176,3 +176,21 @@ def test_lifted_view_lifts_only_the_asked_pixels_as_lift_depth_does() -> None:
     assert got.shape == (int((mask & valid).sum()), 3) and 0 < len(got) < mask.sum()
     np.testing.assert_array_equal(got, pts[mask & valid])
     assert lifted.points(np.zeros_like(mask)).shape == (0, 3)
+
+
+def test_lifted_view_lifts_a_window_of_the_mask_as_the_whole_mask() -> None:
+    """``LiftedView.points(window, corner)``: the same points, in the same order, as the whole-image mask that
+    holds that window at ``corner`` (row, column)."""
+    from code_as_monitor.geometry.backproject import LiftedView
+
+    rng = np.random.default_rng(6)
+    depth = rng.uniform(0.2, 3.0, (48, 64)).astype(np.float32)
+    depth[rng.random((48, 64)) < 0.2] = np.nan
+    lifted = LiftedView(depth, _cam())
+    mask = np.zeros((48, 64), bool)
+    mask[12:19, 30:41] = rng.random((7, 11)) < 0.6
+    whole = lifted.points(mask)
+    assert len(whole) > 0
+    np.testing.assert_array_equal(lifted.points(mask[12:19, 30:41], (12, 30)), whole)
+    np.testing.assert_array_equal(lifted.points(mask[10:20, 28:44], (10, 28)), whole)
+    assert not np.array_equal(lifted.points(mask[12:19, 30:41]), whole)  # the corner matters

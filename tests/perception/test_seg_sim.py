@@ -78,3 +78,18 @@ def test_sim_segmenter_robot_mask_is_the_robots_labels(view):
     m = seg.robot_mask(replace(view, seg_labels=labels))
     np.testing.assert_array_equal(m, view.seg == 10)
     assert make_segmenter(SegmenterConfig.from_name("color")).robot_mask(view) is None
+
+
+def test_sim_segmenter_many_equals_one_by_one_and_each_result_owns_its_masks(view):
+    """``segment_many`` computes a union of ids once per call; every result still gets its own arrays, equal
+    to what ``segment`` gives for its spec alone."""
+    seg = make_segmenter(SegmenterConfig.from_name("sim"))
+    specs = [ElementSpec("red", "red_block", ""), ElementSpec("red top", "red_block", "top", ElementKind.SURFACE),
+             ElementSpec("red again", "red_block", ""), ElementSpec("red body", "red_block", "body")]
+    many = seg.segment_many(view, specs)
+    for spec, got in zip(specs, many):
+        one = seg.segment(view, spec)
+        np.testing.assert_array_equal(got.instance_mask, one.instance_mask)
+        np.testing.assert_array_equal(got.part_mask, one.part_mask)
+    arrays = [m for r in many for m in (r.instance_mask, r.part_mask)]
+    assert not any(np.shares_memory(a, b) for i, a in enumerate(arrays) for b in arrays[i + 1:])

@@ -245,3 +245,44 @@ def test_a_part_built_from_its_whole_object_does_not_make_the_object_registrable
     small = rng.uniform(0, 0.015, (20, 3))
     assert registrable_objects([bead(0, small, True), bead(1, rope, False)], c, None) == set()
     assert registrable_objects([bead(0, small, True), bead(1, rope, True)], c, None) == {"rope"}
+
+
+class StickAndCubeScene(Scene):
+    """Boxes ``shaft`` and ``tip`` are the parts of one object ``stick``; any other box is an object of its own."""
+
+    def labels(self) -> dict[int, tuple[str, str]]:
+        out = super().labels()
+        for j, b in enumerate(self.boxes):
+            if b.name in ("shaft", "tip"):
+                out[10 + 2 * j] = out[11 + 2 * j] = ("stick", b.name)
+        return out
+
+
+def test_small_part_whose_object_is_lost_is_stale_not_fitted_elsewhere():
+    """A stick's 1 cm tip is registered with its stick. While the stick moves a few mm per frame, the tip
+    follows it; when the whole stick is lost (it leaves the crop at once), the tip alone would fit a
+    1 cm cube 2 cm away that looks just like it: it must be stale at its last good point, not there."""
+    cams = two_cameras()
+    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
+    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    cube = Box("cube", np.array([0.065, 0.02, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    scene = StickAndCubeScene([shaft, tip, cube], table_textured=False)
+    specs = [ElementSpec("stick shaft", "stick", "shaft", "line"), ElementSpec("stick tip", "stick", "tip")]
+    tr, els = _track(scene, cams, specs)
+    assert tr.detected_owners() == set()  # the tip is registered with its stick
+    painted = els[1].points[0] - tip.center
+    start = [shaft.center.copy(), tip.center.copy()]
+    step = np.array([-0.004, 0.0, 0.0])  # away from the cube
+    for f in range(1, 4):
+        shaft.center, tip.center = start[0] + f * step, start[1] + f * step
+        res = tr.step(_obs(scene, cams, 0.1 * f))
+        assert not res.stale[els[1].id].any(), f
+        assert np.linalg.norm(res.points[els[1].id][0] - (tip.center + painted)) < 0.003, f
+    last = res.points[els[1].id].copy()
+    away = np.array([0.0, -0.3, 0.0])  # the whole stick leaves at once: lost
+    shaft.center, tip.center = shaft.center + away, tip.center + away
+    for f in range(4, 7):
+        res = tr.step(_obs(scene, cams, 0.1 * f))
+        assert res.stale[els[0].id].all(), f  # the stick is lost ...
+        assert res.stale[els[1].id].all(), f  # ... and so is its tip, not fitted to the cube
+        np.testing.assert_allclose(res.points[els[1].id], last)

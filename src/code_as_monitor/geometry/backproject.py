@@ -138,9 +138,17 @@ class LiftedView:
         self.valid = valid_depth(depth, max_depth)
         self.rays, self.origin = _world_rays(camera)
 
-    def points(self, mask: np.ndarray) -> np.ndarray:
-        """World points (N, 3) float64, metres, of the ``mask`` (H, W) bool pixels with a valid depth reading."""
-        rows, cols = np.nonzero(mask & self.valid)
+    def points(self, mask: np.ndarray, corner: tuple[int, int] = (0, 0)) -> np.ndarray:
+        """World points (N, 3) float64, metres, of the ``mask`` bool pixels with a valid depth reading.
+
+        ``mask`` is (H, W), or a window (h, w) of the image whose first pixel is ``corner`` = (row, column):
+        the same points as the whole-image mask with that window set, in the same (row-major) order, at the
+        cost of the window (a small object's mask need not be scanned over the whole image)."""
+        r0, c0 = corner
+        h, w = mask.shape
+        rows, cols = np.nonzero(mask & self.valid[r0:r0 + h, c0:c0 + w])
+        if r0 or c0:
+            rows, cols = rows + r0, cols + c0
         out = self.depth[rows, cols].astype(np.float64)[:, None] * self.rays[rows, cols]
         out += self.origin
         return out

@@ -32,17 +32,26 @@ class SimSegmenter(Segmenter):
     ) -> list[SegmentResult]:
         """All specs from the id image: a mask is the union of ``seg == id`` over the few ids of its object or
         part (a comparison per id is linear in the pixels; numbering the image's ids with ``np.unique``
-        sorted every pixel, which was the most expensive step of a replay)."""
+        sorted every pixel, which was the most expensive step of a replay); each union is computed once per
+        call (the parts of one object share its instance mask)."""
         if view.seg is None or view.seg_labels is None:
             raise PerceptionError(
                 f"view {view.camera.name!r} has no ground-truth seg image; the sim segmenter needs one "
                 "(use the color or http segmenter on real images)"
             )
         out = []
+        made: dict[tuple[int, ...], np.ndarray] = {}  # ids -> their union, once per call (a rope's beads share it)
+
+        def union(ids: list[int]) -> np.ndarray:
+            key = tuple(ids)
+            if key not in made:
+                made[key] = _union_mask(view.seg, ids)
+            return made[key].copy()  # every result owns its masks
+
         for spec in specs:
             obj_ids, part_ids = self._ids(view.seg_labels, spec)
-            inst = _union_mask(view.seg, obj_ids)
-            part = inst.copy() if part_ids is obj_ids else _union_mask(view.seg, part_ids)
+            inst = union(obj_ids)
+            part = inst.copy() if part_ids is obj_ids else union(part_ids)
             out.append(SegmentResult(inst, part, spec.kind, 1.0 if part.any() else 0.0))
         return out
 

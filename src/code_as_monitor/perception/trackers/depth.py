@@ -25,11 +25,12 @@ Per frame and body:
    seen at paint time) and few contradicted by a reading behind them (``max_contradiction``). The
    first guess whose registration barely moved it and passes ends the search; otherwise the passing
    result with the most evidence wins;
-4. no passing result: the body is *lost* this frame and its elements are stale (they keep their last
-   good points; nothing is guessed). A lost body keeps being searched from its last pose (and, while
-   held, from where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by
-   :meth:`set_reacquire` re-segments its elements (the agent re-runs the painter); the returned
-   elements' clouds become the body's new model.
+4. no passing result: the body is *lost* this frame and its elements are stale (they keep their last good
+   points; nothing is guessed). A lost body keeps being searched from its last pose (and, while held, from
+   where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by :meth:`set_reacquire`
+   re-segments its elements (the agent re-runs the painter); their clouds become the body's new model. A part
+   too small to register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part
+   moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong.
 
 Small bodies. A body too small to register (:func:`.depth_detect.is_small`: few points or a small extent
 of its painted cloud, measured, never named) is followed by detection when the tracker has the painter's
@@ -149,7 +150,8 @@ class DepthTracker(Tracker):
                 if body.parent in moves:
                     related.append(moves[body.parent])
             before = body.T.copy()
-            track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool)
+            alone = body.parent is not None and body.parent not in moves and not related  # its object lost
+            track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone)
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
         self._resolve_overlaps()
@@ -223,11 +225,10 @@ class DepthTracker(Tracker):
         """This frame's anonymous detections of the small bodies (see depth_detect.detect)."""
         if not self._small or self._segmenter is None:
             return {}
-        bodies = list(self._small.values())
-        usable = {v.name for v in views}
+        usable, bodies = {v.name for v in views}, list(self._small.values())
         keys = [k for k, v in obs.views.items() if getattr(v.camera, "name", None) in usable]
-        return detect(self._segmenter, obs, keys, [b.spec for b in bodies],
-                      self.config.detect_min_pixels, max(b.extent for b in bodies))
+        return detect(self._segmenter, obs, keys, [b.spec for b in bodies], self.config.detect_min_pixels,
+                      max(b.extent for b in bodies))
 
     def _new_body(self, owner: Owner, cloud: np.ndarray, views: list[ViewData], parent: Owner | None) -> BodyState:
         c = self.config
@@ -238,7 +239,7 @@ class DepthTracker(Tracker):
             return BodyState(owner, None, parent, lost=True)
         seen = support(model.points, views, c.depth_tol, c.max_depth)
         return BodyState(owner, model, parent, ref_seen=max(seen.seen, c.min_seen), seen_views=seen.views,
-                     painted=self._frame)
+                         painted=self._frame, small=is_small(model.points, c))
 
     def _ordered_bodies(self) -> list[Owner]:
         """Whole objects first, then held parts (their motion is known best), then the other parts."""

@@ -191,6 +191,11 @@ def _offset(body: SmallBody, view: str, bodies: Sequence[SmallBody]) -> tuple[np
     own = body.offsets.get(view)
     if own is not None:
         return own
+    return _median_offset(view, bodies)
+
+
+def _median_offset(view: str, bodies: Sequence[SmallBody]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The median of the offsets of ``bodies`` in ``view`` (what a body without its own there adopts), else None."""
     others = [b.offsets[view] for b in bodies if view in b.offsets]
     if not others:
         return None
@@ -211,10 +216,18 @@ def estimates(C: np.ndarray, eye: np.ndarray, offset: tuple[np.ndarray, np.ndarr
     o, a = offset
     b = eye - C
     b = b / np.maximum(np.linalg.norm(b, axis=1, keepdims=True), 1e-12)
-    v = np.cross(a, b)
+    v = _cross(a, b)
     c = b @ a
-    rot = o * c[:, None] + np.cross(v, o) + v * ((v @ o) / np.maximum(1.0 + c, 1e-9))[:, None]
+    rot = o * c[:, None] + _cross(v, o) + v * ((v @ o) / np.maximum(1.0 + c, 1e-9))[:, None]
     return C + rot
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of 3-vectors along the last axis (broadcast), by the same products in the same order, without
+    its per-call overhead (it dominated the association of many small bodies)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack(np.broadcast_arrays(a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def associate(bodies: Sequence[SmallBody], pred: list[np.ndarray], det: dict[str, ViewDetections],
@@ -231,7 +244,8 @@ def associate(bodies: Sequence[SmallBody], pred: list[np.ndarray], det: dict[str
         if not free or not len(bodies):
             continue
         Cf = vd.centroids[free]
-        cand = [estimates(Cf, vd.eye, _offset(b, view, bodies)) for b in bodies]
+        median = _median_offset(view, bodies)  # once per view: the fallback of every body without its own
+        cand = [estimates(Cf, vd.eye, b.offsets.get(view, median)) for b in bodies]
         alike = _alike(bodies, vd.chroma[free], max_chroma)
         for i, j in enumerate(_assign(pred, cand, gates, alike)):
             if j >= 0:

@@ -69,18 +69,21 @@ def detect(segmenter: object, obs: Observation, views: Sequence[str], specs: lis
         rgb = np.asarray(view.rgb) if np.shape(view.rgb) == (*np.shape(view.depth), 3) else None
         for r in results:
             mask = getattr(r, "part_mask", None)
-            if mask is None or not mask.any():
+            box = _box(mask) if mask is not None else None
+            if box is None:
                 continue
-            P = lifted.points(mask)
+            r0, r1, c0, c1 = box  # the work below is on the mask's bounding box, not the whole image
+            crop = mask[r0:r1, c0:c1]
+            P = lifted.points(crop, (r0, c0))
             if len(P) >= min_pixels:
                 P = P[np.linalg.norm(P - np.median(P, axis=0), axis=1) <= max_extent]
             if len(P) < min_pixels:
                 continue
             c = P.mean(axis=0)
-            if not any(np.linalg.norm(c - d) < 1e-4 for d in cents):
+            if not cents or float(np.min(np.linalg.norm(np.array(cents) - c, axis=1))) >= 1e-4:
                 cents.append(c)
-                cut.append(_truncated(mask, lifted.depth, lifted.valid, 0.5 * max_extent))
-                col = rgb[mask].astype(np.float64).mean(axis=0) if rgb is not None else np.ones(3)
+                cut.append(_truncated(mask, box, lifted.depth, lifted.valid, 0.5 * max_extent))
+                col = rgb[r0:r1, c0:c1][crop].astype(np.float64).mean(axis=0) if rgb is not None else np.ones(3)
                 chroma.append(col / max(float(col.sum()), 1e-9))
         C = np.array(cents).reshape(-1, 3)
         order = np.lexsort((C[:, 1], C[:, 0])) if len(C) else np.zeros(0, dtype=int)
@@ -89,14 +92,24 @@ def detect(segmenter: object, obs: Observation, views: Sequence[str], specs: lis
     return out
 
 
-def _truncated(mask: np.ndarray, depth: np.ndarray, valid: np.ndarray, nearer: float) -> bool:
-    """Whether over a fifth of the valid pixels in a 2-pixel ring around ``mask`` (H, W) read more than
-    ``nearer`` metres nearer than the mask's median depth."""
+def _box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """``(first row, last row + 1, first column, last column + 1)`` of the set pixels of ``mask`` (H, W) bool;
+    None when it has none."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    if not len(rows):
+        return None
+    cols = np.flatnonzero(mask.any(axis=0))
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _truncated(mask: np.ndarray, box: tuple[int, int, int, int], depth: np.ndarray, valid: np.ndarray,
+               nearer: float) -> bool:
+    """Whether over a fifth of the valid pixels in a 2-pixel ring around ``mask`` (H, W; its set pixels lie in
+    ``box``, see :func:`_box`) read more than ``nearer`` metres nearer than the mask's median depth."""
     import cv2
 
-    rows, cols = np.nonzero(mask)
-    r0, r1 = max(rows.min() - 2, 0), min(rows.max() + 3, mask.shape[0])
-    c0, c1 = max(cols.min() - 2, 0), min(cols.max() + 3, mask.shape[1])
+    r0, r1 = max(box[0] - 2, 0), min(box[1] + 2, mask.shape[0])
+    c0, c1 = max(box[2] - 2, 0), min(box[3] + 2, mask.shape[1])
     m = mask[r0:r1, c0:c1].astype(np.uint8)
     ring = (cv2.dilate(m, np.ones((5, 5), np.uint8)) > 0) & (m == 0) & valid[r0:r1, c0:c1]
     inside = m.astype(bool) & valid[r0:r1, c0:c1]

@@ -36,11 +36,13 @@ class BodyState:
     seen_views: int = 0
     last: Support | None = None  # evidence of the last good pose, in its frame
     painted: int = 0  # frame counter value when the model was painted (later = more recent evidence)
+    small: bool = False  # too small to register on its own (depth_detect.is_small on the model): placed by its object
     elements: list[int] = field(default_factory=list)
 
 
 def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], plane: Plane | None,
-               dT_ee: np.ndarray | None, related: list[np.ndarray], dt: float, tool: tuple | None) -> None:
+               dT_ee: np.ndarray | None, related: list[np.ndarray], dt: float, tool: tuple | None,
+               alone: bool = False) -> None:
     """One frame of one body: accept its unmoved (or object-carried) pose when the frame sees it as well
     as the last, else crop the scene around its guesses and search; update the body's state.
 
@@ -49,6 +51,8 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         related: this frame's motions (4, 4, world) of the other parts of its object, then of the object.
         dt: seconds since the last frame.
         tool: see :func:`.depth_views.crop_scene`.
+        alone: a part whose object is lost this frame (and no other part of it moved it): a ``small`` body
+            is then only accepted unmoved, never searched for (alone, its few points fit other surfaces).
     """
     if body.model is None:
         return
@@ -57,7 +61,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         # At rest, or (a part) carried along rigidly by its object: no registration needed.
         found = _unmoved(c, body, views, related[-1] if body.parent is not None and related else None)
     guesses = _guesses(c, body, dT_ee, related, dt)
-    if views and found is None:
+    if views and found is None and not (alone and body.small):
         boxes = [apply(T, body.model.box) for tier in guesses for T in tier]
         scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
                            None if body.model.in_plane else plane, c.plane_band, tool)
