@@ -286,3 +286,21 @@ def test_small_part_whose_object_is_lost_is_stale_not_fitted_elsewhere():
         assert res.stale[els[0].id].all(), f  # the stick is lost ...
         assert res.stale[els[1].id].all(), f  # ... and so is its tip, not fitted to the cube
         np.testing.assert_allclose(res.points[els[1].id], last)
+
+
+def test_a_part_repainted_from_its_whole_object_does_not_replace_the_part():
+    """Re-acquiring a part that its paint had seen: a re-paint where no view saw the part (the whole object's
+    masks stood in) is not the part's position (a pen tip inside the holder re-painted as the visible pen
+    above it, 8 cm off); a part that was a stand-in from the start may be re-painted as one."""
+    from code_as_monitor.core.elements import Element, ElementKind, ElementSupport
+    from code_as_monitor.perception.trackers.depth_detect import stood_in
+
+    def el(part: str, seen: bool | None) -> Element:
+        sup = None if seen is None else ElementSupport(points=40, views=2, residual=0.001, part_seen=seen)
+        return Element(2, "pen tip", ElementKind.POINT, np.zeros((1, 3)), ("pen", part), support=sup)
+
+    assert stood_in(el("tip", True), el("tip", False))
+    assert stood_in(el("tip", None), el("tip", False))
+    assert not stood_in(el("tip", True), el("tip", True))
+    assert not stood_in(el("tip", False), el("tip", False))  # a stand-in all along
+    assert not stood_in(el("", True), el("", False))  # a whole object is its own mask

@@ -8,9 +8,7 @@ whole object). A part element whose element also carries the whole object's clou
 its motion is one of the part's guesses, so a part rigid with its object (a block's top, a teapot's
 lid) moves with the well-constrained whole, while a part that moves on its own (a drawer handle on a
 prismatic drawer, a rope bead) is registered from its own cloud and wins by its own evidence.
-An element's points move with its body's pose: ``p_now = T_body @ p_painted``.
-
-Per frame and body:
+An element's points move with its body's pose: ``p_now = T_body @ p_painted``. Per frame and body:
 
 1. guesses of the pose: where it was; where the end-effector's motion since the last frame took it,
    when the gripper or suction is on and the tip was within ``held_distance`` of the body; the parent's
@@ -68,6 +66,7 @@ from code_as_monitor.perception.trackers.depth_detect import (
     model_points,
     principal_extent,
     registrable_objects,
+    stood_in,
     track_small,
 )
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
@@ -316,7 +315,7 @@ class DepthTracker(Tracker):
             old = self._elements[eid]
             new = self._reacquire(obs, Element(old.id, old.name, old.kind, self._last[eid].copy(), old.owner,
                                                old.color))
-            if new is None:
+            if new is None or stood_in(old, new):  # a part re-painted from its whole object: stays stale
                 continue
             if new.id != eid:
                 raise PerceptionError(f"reacquire hook returned element {new.id} for element {eid}")
