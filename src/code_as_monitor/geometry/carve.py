@@ -83,7 +83,7 @@ def _face_samples(box: Box, axis: int, n: int, inset: float, margin: float = 0.0
 
 def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
           grow_axes: Sequence[int] = (0, 1, 2), max_grow: float | None = None,
-          points: np.ndarray | None = None) -> Box:
+          points: np.ndarray | None = None, compact: bool = True) -> Box:
     """Push the box's hidden sides outwards through space no view sees (step 3 of the module docstring).
 
     Args:
@@ -95,6 +95,8 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
         points: optional (N, 3) world metres, the part's cloud the box was fitted to: whether its thinnest axis
             is seen on one face alone is judged on the central 90 % of the points along it (a few grazing points
             on a side face do not make a second face), else on the box's extent.
+        compact: the cloud is a whole object, a solid: a face seen alone gets a compact solid's depth (see
+            :func:`_assume_depth`). False for a part, which may be a face by nature (a box's top, a cover).
     Returns:
         A new box with ``grown`` and ``hidden`` filled in.
     """
@@ -132,7 +134,7 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
             missing = max(0.0, min(others) - ext[a] - out.grown[~out.hidden[:, a], a].sum())
             out.grown[out.hidden[:, a], a] = missing / int(out.hidden[:, a].sum())
     a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
-    if a in grow_axes and not out.hidden[:, a].any():  # the depth of a compact solid: see _assume_depth
+    if compact and a in grow_axes and not out.hidden[:, a].any():  # a compact solid's depth: see _assume_depth
         prior = min(ext[b] for b in range(3) if b != a)
         if _spread(box, a, points) < FACE_ALONE * prior:
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))

@@ -163,13 +163,14 @@ def fit_element_points(
 
 def fit_part(
     Q: np.ndarray, voxel: float, kind: ElementKind, views: Sequence[CarveView],
-    support: SupportPlane | None = None,
+    support: SupportPlane | None = None, compact: bool = True,
 ) -> tuple[np.ndarray, Box]:
-    """Element points (k, 3) and the carved box of a part's cloud ``Q`` (M, 3) seen in ``views``."""
+    """Element points (k, 3) and the carved box of a part's cloud ``Q`` (M, 3) seen in ``views``; ``compact``:
+    ``Q`` is a whole object (see :func:`~.carve.carve`)."""
     box = fit_box(Q, voxel) if support is None else fit_box(Q, voxel, noise=support.noise, up=support.normal)
     thin = int(np.argmin(box.extent))
     grow = [a for a in range(3) if not (kind is ElementKind.SURFACE and a == thin)]
-    box = carve(box, views, support, grow, points=Q)
+    box = carve(box, views, support, grow, points=Q, compact=compact)
     return element_points(Q, box, kind, voxel, thin), box
 
 
@@ -215,7 +216,7 @@ def build_element_from_clouds(
         raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): no points left to fit after "
                            f"dropping isolated ones ({len(P)} fused)")
     try:
-        pts, box = fit_part(Q, vs, spec.kind, views, support)
+        pts, box = fit_part(Q, vs, spec.kind, views, support, compact=not spec.part)
     except ElementError as exc:
         raise ElementError(f"element {spec.name!r} ({spec.obj}/{spec.part or '*'}): {exc}") from None
     ext = np.sort(box.extent)[::-1]
