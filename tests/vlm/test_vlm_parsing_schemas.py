@@ -99,7 +99,9 @@ def test_usage_meter_per_subgoal_and_episode():
 
 def test_prompt_templates():
     assert placeholders("constraint_generator") == {"skills"}
-    assert placeholders("monitor_coder") == set()
+    # v4: one line saying the annotated views follow, filled only when the coder sends them (views=True)
+    assert placeholders("monitor_coder") == {"image"}
+    assert placeholders("monitor_coder", "v3") == set()
     coder = load_template("monitor_coder")
     for name in MONITOR_HELPERS:  # every helper a program may call is documented for the coder
         assert re.search(rf"\b{name}\(", coder), name
