@@ -26,7 +26,8 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
 4. no passing result: the body is *lost* this frame and its elements are stale (they keep their last good
    points; nothing is guessed). A lost body keeps being searched from its last pose (and, while held, from
    where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by :meth:`set_reacquire`
-   re-segments its elements (the agent re-runs the painter); their clouds become the body's new model. A part
+   re-segments its elements (the agent re-runs the painter); their clouds become the body's new model (a part
+   re-painted from its whole object's masks where its earlier paint had seen it is refused: stale). A part
    too small to register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part
    moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong.
 
