@@ -25,10 +25,10 @@ from code_as_monitor.sim.world import WorldConfig
 class Scored:
     """Runs the depth tracker on one block's element and scores every frame against the truth."""
 
-    def __init__(self, env, obj: str) -> None:
+    def __init__(self, env, obj: str, part: str = "") -> None:
         self.env, self.obj = env, obj
         self.painter = Painter(make_segmenter(SegmenterConfig.from_name("sim")))
-        self.spec = ElementSpec(obj, obj, "")
+        self.spec = ElementSpec(f"{obj} {part}".strip(), obj, part)
         self.tracker = make_tracker(TrackerConfig.from_name("depth"))
         self.tracker.set_reacquire(self._repaint)
         self.calls: list[float] = []
@@ -164,3 +164,22 @@ def test_lower_block_stays_put_while_the_next_is_set_on_it():
         rest = [f for f in frames if f["label"] != "pick" or f["t"] > 0]
         assert rest and all(f["stale"] or f["err"] < 0.005 for f in rest), [
             (round(f["t"], 2), round(1e3 * f["err"], 1)) for f in rest if f["err"] >= 0.005]
+
+
+def test_pen_tip_followed_into_the_holder_with_its_pen():
+    """The scripted slot-pen (undisturbed): the pen's tip (a part of the pen) hides in the holder as the pen
+    goes in. Its few points must not slide up the pen's visible body (seen with this episode seed: the
+    estimate stuck at the rim, 4-5 cm above the true tip, and the monitor read "pen dropped ... not inside
+    pen_holder" after the release); a reported tip is on the true one, and while the held pen goes in it is
+    reported where the pen carries it (not only stale)."""
+    with make_env("slot-pen", seed=47304037, disturbed=False, world_config=WorldConfig(width=320, height=240)) as env:
+        sc = Scored(env, "pen", "tip")
+        rim = float(env.world.position("pen_holder/rim")[2])  # the rim link sits at the opening's height
+        frames = []
+        for action in env.task.default_plan():
+            frames += sc.run(_policy(env, action), action.skill)
+        fresh = [f for f in frames if not f["stale"]]
+        assert all(f["err"] < 0.008 for f in fresh), [(round(f["t"], 2), round(1e3 * f["err"], 1))
+                                                       for f in fresh if f["err"] >= 0.008]
+        deep = [f for f in frames if f["label"] == "insert" and f["truth"][2] < rim - 0.02]
+        assert deep and sum(not f["stale"] for f in deep) >= len(deep) // 2

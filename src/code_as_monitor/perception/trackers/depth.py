@@ -60,6 +60,7 @@ from code_as_monitor.perception.trackers.base import (
     TrackResult,
 )
 from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, support
+from code_as_monitor.perception.trackers.depth_claims import keep_on_object, resolve_overlaps
 from code_as_monitor.perception.trackers.depth_detect import (
     SmallBody,
     init_offsets,
@@ -151,10 +152,13 @@ class DepthTracker(Tracker):
                     related.append(moves[body.parent])
             before = body.T.copy()
             alone = body.parent is not None and body.parent not in moves and not related  # its object lost
+            body.on_parent = False
             track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone)
+            if body.parent in moves:  # not slid along its object, nor lost where the object carries it
+                keep_on_object(c, body, self._bodies[body.parent], views)
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
-        self._resolve_overlaps()
+        resolve_overlaps(c, list(self._bodies.values()))
         if self._small:
             tip = _tip(obs) if obs.robot is not None else None
             tips = (self._tip_prev, tip) if (tip is not None and self._tip_prev is not None) else None
@@ -190,10 +194,13 @@ class DepthTracker(Tracker):
             parent = (obj, "")
             if parent not in self._bodies or self._bodies[parent].lost:
                 self._bodies[parent] = self._new_body(parent, obj_cloud, views, None)
+                for b in self._bodies.values():  # the parts' poses relative to the new model frame
+                    b.rel = (None if b.lost else b.T) if b.parent == parent else b.rel
         body = self._bodies.get(owner)
         if body is None or body.model is None or body.lost or not np.allclose(body.T, np.eye(4)):
             keep = body.elements if body is not None else []
             body = self._bodies[owner] = self._new_body(owner, cloud, views, parent)
+            body.rel = invert(self._bodies[parent].T) if parent is not None and not self._bodies[parent].lost else None
             body.elements = [i for i in keep if i != el.id]
             for i in body.elements:  # the others' points were in the old model frame
                 self._local[i] = self._last[i].copy()
@@ -257,32 +264,6 @@ class DepthTracker(Tracker):
                 continue
             cands.append((float(np.linalg.norm(apply(other.T, other.model.centre[None])[0] - here)), m))
         return [m for _, m in sorted(cands, key=lambda x: x[0])[:k]]
-
-    def _resolve_overlaps(self) -> None:
-        """Two bodies of different objects cannot occupy the same space: when one's model points mostly
-        lie on the other's surface (an identical block slid onto its neighbour), the body painted
-        longer ago, or on a tie the one that moved further this frame, is lost."""
-        c = self.config
-        live = [b for b in self._bodies.values() if b.model is not None and not b.lost]
-        if len(live) < 2:
-            return
-        centres = np.array([apply(b.T, b.model.centre[None])[0] for b in live])  # type: ignore[union-attr]
-        radii = np.array([b.model.radius for b in live])  # type: ignore[union-attr]
-        near = np.linalg.norm(centres[:, None] - centres[None], axis=2) <= radii[:, None] + radii[None]
-        for i, j in zip(*np.nonzero(np.triu(near, 1))):
-            a, b = live[i], live[j]
-            if a.owner[0] == b.owner[0] or a.lost or b.lost:
-                continue
-            assert a.model is not None and b.model is not None
-            small, big = (a, b) if len(a.model.points) <= len(b.model.points) else (b, a)
-            P = apply(invert(big.T) @ small.T, small.model.points)  # type: ignore[union-attr]
-            _, d2 = big.model.tree.batch_nearest_neighbor_search(P)  # type: ignore[union-attr]
-            if np.mean(np.sqrt(np.asarray(d2)) <= c.depth_tol) < c.max_overlap:
-                continue
-            loser = min((a, b), key=lambda x: (x.painted, -x.moved))  # painted earlier, else moved further
-            log.debug("bodies %s and %s overlap: %s lost", a.owner, b.owner, loser.owner)
-            loser.T, loser.T_search = loser.T_prev, loser.T_prev
-            loser.lost, loser.lost_frames, loser.seen_views = True, loser.lost_before + 1, 0
 
     def _update_held(self, obs: Observation, on: bool) -> None:
         tip = _tip(obs) if obs.robot is not None else None
@@ -370,7 +351,8 @@ class DepthTracker(Tracker):
             if body is not None and not body.lost:
                 self._last[eid] = apply(body.T, self._local[eid])
                 fresh = True
-                support[eid] = float(body.last.seen) if body.last is not None else 0.0  # model points seen
+                ev = self._bodies[body.parent].last if body.on_parent and body.parent else body.last
+                support[eid] = float(ev.seen) if ev is not None else 0.0  # model points seen
             points[eid] = self._last[eid].copy()
             stale[eid] = np.full(len(points[eid]), not fresh)
             visible[eid] = body.seen_views if (body is not None and not body.lost) else 0

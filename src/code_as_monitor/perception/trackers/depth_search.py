@@ -36,6 +36,8 @@ class BodyState:
     seen_views: int = 0
     last: Support | None = None  # evidence of the last good pose, in its frame
     painted: int = 0  # frame counter value when the model was painted (later = more recent evidence)
+    rel: np.ndarray | None = None  # a part: its pose relative to its object's model frame (depth_claims)
+    on_parent: bool = False  # a part placed where its object carries it this frame (its evidence is the object's)
     small: bool = False  # too small to register on its own (depth_detect.is_small on the model): placed by its object
     elements: list[int] = field(default_factory=list)
 
