@@ -154,11 +154,12 @@ class DepthTracker(Tracker):
             alone = body.parent is not None and body.parent not in moves and not related  # its object lost
             body.on_parent = False
             track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone)
-            if body.parent in moves:  # not slid along its object, nor lost where the object carries it
-                keep_on_object(c, body, self._bodies[body.parent], views)
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
-        resolve_overlaps(c, list(self._bodies.values()))
+        resolve_overlaps(c, list(self._bodies.values()))  # first: a part slid onto another object is lost
+        for body in self._bodies.values():  # a part not slid along its object, nor lost where it carries it
+            if body.parent in moves and not self._bodies[body.parent].lost:
+                keep_on_object(c, body, self._bodies[body.parent], views)
         if self._small:
             tip = _tip(obs) if obs.robot is not None else None
             tips = (self._tip_prev, tip) if (tip is not None and self._tip_prev is not None) else None
