@@ -29,7 +29,12 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    re-segments its elements (the agent re-runs the painter); their clouds become the body's new model (a part
    re-painted from its whole object's masks where its earlier paint had seen it is refused: stale). A part
    too small to register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part
-   moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong.
+   moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong;
+5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted
+   longer ago; then a part whose registration left where its object carries it without ``min_seen`` points
+   seen off the object's surface slid along it (a pen's tip hidden in a holder matched the pen's visible
+   body), and it, or a part lost this frame, is placed where its registered object carries it unless the
+   frame contradicts it there: a rigid part hidden by another object is followed with its object.
 
 Small bodies. A body too small to register (:func:`.depth_detect.is_small`: few points or a small extent
 of its painted cloud, measured, never named) is followed by detection when the tracker has the painter's
