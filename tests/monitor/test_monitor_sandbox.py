@@ -116,6 +116,32 @@ def test_module_level_overrun(constraints, scene):
         assert [v.ok for v in sb.evaluate(scene, None, None, 0.0)] == [True, True]
 
 
+def _stopped_while_loading(sb: Sandbox, constraints, stop_s: float) -> None:
+    """Load GOOD into a ready worker that is stopped (SIGSTOP) for ``stop_s`` seconds: a machine too busy
+    to run it, its program using no CPU meanwhile."""
+    import threading
+
+    w = sb._ready_worker(time.perf_counter() + 60.0, refill=False)  # its ready record is read
+    os.kill(w.pid, signal.SIGSTOP)
+    timer = threading.Timer(stop_s, os.kill, (w.pid, signal.SIGCONT))
+    timer.start()
+    try:
+        sb._load_into(w, GOOD, constraints, False)
+    finally:
+        timer.join()
+
+
+def test_module_level_budget_is_cpu_time_not_a_busy_machines_wall_time(constraints, scene):
+    """A worker the machine does not run for 2.5 s (stopped) has used none of its 1 s budget: the load waits
+    (up to the wall ceiling) and succeeds; past the ceiling it fails."""
+    with Sandbox(load_timeout_s=1.0, deadline_s=5.0) as sb:
+        _stopped_while_loading(sb, constraints, 2.5)
+        assert [v.ok for v in sb.evaluate(scene, None, None, 0.0)] == [True, True]
+    with Sandbox(load_timeout_s=1.0, load_wall_s=1.5, deadline_s=5.0) as sb, \
+            pytest.raises(ProgramError, match="did not finish"):
+        _stopped_while_loading(sb, constraints, 3.0)
+
+
 def test_evaluate_before_load_and_bad_limits():
     with pytest.raises(SandboxError):
         Sandbox(deadline_s=0.0)

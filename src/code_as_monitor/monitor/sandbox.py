@@ -49,7 +49,10 @@ class Sandbox(WorkerLifecycle):
         memory_mb: address space a worker may allocate beyond its size after start-up, MiB.
         cpu_s: lifetime CPU seconds of one worker (``RLIMIT_CPU``, a backstop; it is then replaced).
         start_timeout_s: how long :meth:`start` and :meth:`load` wait for a spare to be ready.
-        load_timeout_s: how long :meth:`load` waits for the program's module-level code.
+        load_timeout_s: CPU seconds the program's module-level code may use in :meth:`load`. The wait is
+            wall-clock time, extended while the worker has used less CPU than this (a busy machine, not the
+            program, made it late), up to ``load_wall_s``.
+        load_wall_s: wall-clock ceiling of the module-level wait, seconds (default: 10 x ``load_timeout_s``).
         spares: workers kept started beyond the one running the program (>= 1).
         confine: install the kernel confinement in every worker (False needs ``allow_unconfined``).
         allow_unconfined: run generated code even where the confinement cannot be installed (an explicit
@@ -60,7 +63,8 @@ class Sandbox(WorkerLifecycle):
 
     def __init__(self, deadline_s: float = 0.020, memory_mb: int = 512, cpu_s: int = 600,
                  start_timeout_s: float = 20.0, load_timeout_s: float = 2.0, spares: int = 1,
-                 confine: bool = True, allow_unconfined: bool | None = None) -> None:
+                 confine: bool = True, allow_unconfined: bool | None = None,
+                 load_wall_s: float | None = None) -> None:
         try:
             check_range("Sandbox", "deadline_s", deadline_s, *DEADLINE_S_RANGE)
             for f, v, lo in (("memory_mb", memory_mb, 32), ("cpu_s", cpu_s, 1), ("spares", spares, 1)):
@@ -75,6 +79,7 @@ class Sandbox(WorkerLifecycle):
         super().__init__(memory_mb, cpu_s, start_timeout_s, spares, confine, allow_unconfined)
         self.deadline_s = float(deadline_s)
         self.load_timeout_s = float(load_timeout_s)
+        self.load_wall_s = max(self.load_timeout_s, 10.0 * self.load_timeout_s if load_wall_s is None else load_wall_s)
         self._constraints: list[Constraint] = []
         self._reasons: list[tuple[bytes, str]] = []
         self._seq = 0
@@ -130,14 +135,14 @@ class Sandbox(WorkerLifecycle):
             w.send(pickle.dumps(("load", source, list(constraints), coverage), protocol=5),
                    time.perf_counter() + self.load_timeout_s)
             w.awaiting.append("loaded")
-            self._absorb(w, time.perf_counter() + self.load_timeout_s)
+            self._absorb_load(w)
         except ProgramError:
             self._retire(w)
             raise
         except LateError:
             self._retire(w)
             raise ProgramError(f"monitor program's module-level code did not finish within "
-                               f"{self.load_timeout_s} s") from None
+                               f"{self.load_timeout_s} s of CPU time ({self.load_wall_s} s wall at most)") from None
         except (EOFError, OSError, ReplyError) as exc:
             why = f"{type(exc).__name__}: {exc}; {w.how_it_ended()}"
             self._retire(w)
@@ -147,6 +152,23 @@ class Sandbox(WorkerLifecycle):
         self._constraints = list(constraints)
         self._reasons = [(b"\0", "")] * len(constraints)
         self.n_branches = w.n_branches
+
+    def _absorb_load(self, w: WorkerProcess) -> None:
+        """Wait for the load reply: ``load_timeout_s`` of the worker's CPU time, within ``load_wall_s`` of
+        wall time (raises :class:`LateError` past either; where CPU time cannot be read, the wall budget is
+        ``load_timeout_s``)."""
+        start, cpu0 = time.perf_counter(), w.cpu_seconds()
+        deadline = start + self.load_timeout_s
+        while True:
+            try:
+                self._absorb(w, deadline)
+                return
+            except LateError:
+                used = w.cpu_seconds() - cpu0
+                now = time.perf_counter()
+                if not used < self.load_timeout_s or now - start >= self.load_wall_s:  # NaN: not known
+                    raise
+                deadline = min(start + self.load_wall_s, now + self.load_timeout_s - used)
 
     # --- evaluation -------------------------------------------------------------------------------
     def _faults(self, reason: str, t: float) -> list[Verdict]:
