@@ -15,7 +15,7 @@ import numpy as np
 import code_as_monitor.perception as perception
 from code_as_monitor.cli.main import main
 
-OUT = open(sys.argv[1], "w")
+OUT = open(sys.argv[1], "w")  # noqa: SIM115 (open for the whole run)
 DUMP = __import__("os").environ.get("PROBE_DUMP")
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 _make = perception.make_tracker
@@ -24,6 +24,12 @@ _make = perception.make_tracker
 def _tilt(v: np.ndarray) -> float:
     v = np.asarray(v, float)
     return float(np.degrees(np.arccos(min(1.0, abs(v[2]) / max(np.linalg.norm(v), 1e-9)))))
+
+
+def _tilt_to(v: np.ndarray, ref: np.ndarray) -> float:
+    """Degrees between the lines along ``v`` and ``ref`` (3,)."""
+    c = abs(float(v @ ref)) / max(float(np.linalg.norm(v) * np.linalg.norm(ref)), 1e-9)
+    return float(np.degrees(np.arccos(min(1.0, c))))
 
 
 class Probe:
@@ -36,7 +42,8 @@ class Probe:
 
     def _true(self, obs):
         T = obs.object_poses["book"]
-        return {"t": round(obs.t, 3), "true_spine": np.round(T[:3, 0], 3).tolist(), "true_tilt": round(_tilt(T[:3, 0]), 1),
+        return {"t": round(obs.t, 3), "true_spine": np.round(T[:3, 0], 3).tolist(),
+                "true_tilt": round(_tilt(T[:3, 0]), 1),
                 "book_z": round(float(T[2, 3]), 3),
                 "tip": np.round(obs.robot.ee_points.get("tip", [np.nan] * 3), 3).tolist(), "grip": obs.robot.gripper,
                 "book_in_ee": np.round(obs.robot.ee_pose[:3, :3].T @ T[:3, 0], 2).tolist()}
@@ -51,7 +58,7 @@ class Probe:
                 rec[f"spine{el.id}"] = {"pts": np.round(p, 3).tolist(), "len": round(float(np.linalg.norm(d)), 3),
                                         "tilt": round(_tilt(d), 1),
                                         "support": repr(el.support),
-                                        "angle_to_true": round(float(np.degrees(np.arccos(min(1.0, abs(d @ obs.object_poses['book'][:3, 0]) / max(np.linalg.norm(d), 1e-9))))), 1)}
+                                        "angle_to_true": round(_tilt_to(d, obs.object_poses["book"][:3, 0]), 1)}
         OUT.write(json.dumps(rec) + "\n")
         OUT.flush()
         if DUMP and self.spine_ids and any(rec[f"spine{i}"]["angle_to_true"] > 45 for i in self.spine_ids):

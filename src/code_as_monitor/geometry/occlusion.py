@@ -164,7 +164,7 @@ def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
             continue
         d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
         past = np.isfinite(d) & (d > z + SEEN_THROUGH_TOL)
-        if v.own is not None:  # a mask's silhouette is known to a pixel: a point by the part's own pixels is not past it
+        if v.own is not None:  # a silhouette is known to a pixel: a point by the part's own pixels is not past it
             past &= ~_grow_one_pixel(np.asarray(v.own, dtype=bool))[vi, ui]
         seen += int(past.sum())
         n += len(ui)
