@@ -85,3 +85,23 @@ def test_a_remembered_block_the_robot_covers_entirely_is_hidden_not_contradicted
     seen, outside = contradiction(_skin(), np.array([0.0, 0.0, 0.02]), np.empty((0, 3)), views)
     assert seen == 0.0 and outside == 0.0
     assert robot_hidden_points(_skin(), [OccluderView(*_scene(None)[:1], CAM, _scene(None)[2], None)]) == 0.0
+
+
+def test_a_skin_on_the_silhouettes_border_is_not_seen_through_but_one_beyond_it_is() -> None:
+    """A mask's outline is known to a pixel: a remembered point projecting just past it (a thin part's skin seen
+    edge-on) is not "seen past"; two pixels further it is."""
+    depth, block, robot = _scene(None)
+    views = [OccluderView(depth, CAM, robot, block)]
+    rows, cols = np.nonzero(block)
+    r, c = int(np.median(rows)), int(cols.max())
+    Kinv = np.linalg.inv(CAM.K)
+
+    def at_pixel(u: float, v: float) -> np.ndarray:
+        """(1, 3) the point at the block top's height (z 0.04) that pixel (u, v) sees."""
+        ray = CAM.T_world_cam[:3, :3] @ (Kinv @ np.array([u, v, 1.0]))
+        s = (0.04 - CAM.position[2]) / ray[2]
+        return (CAM.position + s * ray)[None]
+
+    border, beyond = at_pixel(c + 1, r), at_pixel(c + 3, r)  # the table 4 cm below reads past both
+    assert contradiction(border, border[0], np.empty((0, 3)), views)[0] == 0.0
+    assert contradiction(beyond, beyond[0], np.empty((0, 3)), views)[0] == 1.0

@@ -107,15 +107,19 @@ class CodeChecker:
         last, self._last = self._last, None
         if last is None or not getattr(self.painter, "connect_points", True):
             return
-        from code_as_monitor.painter.carry_over import key_of, known_from
+        from code_as_monitor.painter.carry_over import key_of, known_from, object_rotations
 
         t, points, stale, tracked, measured = last
         specs = getattr(self._painted, "specs", {})
-        for e in self._elements:
-            spec, p = specs.get(e.id), points.get(e.id)
-            if spec is None or p is None or e.owner[0] == "robot" or e.id in stale:
-                continue
-            self._known[key_of(spec)] = known_from(measured.get(e.id, e), p, t, tracked.get(e.id, 0.0))
+        kept = [e for e in self._elements if specs.get(e.id) is not None and points.get(e.id) is not None
+                and e.owner[0] != "robot" and e.id not in stale]
+        moves: dict[str, list] = {}
+        for e in kept:  # an object's elements together tell how it turned (its clouds turn with it)
+            moves.setdefault(e.owner[0], []).append((measured.get(e.id, e).points, points[e.id]))
+        turns = object_rotations(moves)
+        for e in kept:
+            self._known[key_of(specs[e.id])] = known_from(measured.get(e.id, e), points[e.id], t,
+                                                          tracked.get(e.id, 0.0), turns.get(e.owner[0]))
 
     def close(self) -> None:
         return None

@@ -98,7 +98,9 @@ def robot_hidden_fraction(box: Box, views: Sequence[OccluderView]) -> float:
 
 def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> float:
     """Fraction (0..1) of the in-image projections of ``points`` (N, 3), over the views that have a robot mask, that
-    fall on a robot pixel nearer than the point: how much of a remembered part the robot hides now."""
+    fall on a robot pixel nearer than the point and not on ``own`` (the part itself, seen: it does not hide itself,
+    also when its object is held and so masked as the robot): how much of a remembered part the robot (or what it
+    holds) hides now."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     hid = n = 0
     for v in views:
@@ -108,7 +110,10 @@ def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> fl
         if not len(ui):
             continue
         d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
-        hid += int((v.robot[vi, ui] & np.isfinite(d) & (d > 0) & (d < z)).sum())
+        front = v.robot[vi, ui] & np.isfinite(d) & (d > 0) & (d < z)
+        if v.own is not None:
+            front &= ~v.own[vi, ui]
+        hid += int(front.sum())
         n += len(ui)
     return hid / n if n else 0.0
 
@@ -120,6 +125,17 @@ def _pixels(P: np.ndarray, v: OccluderView) -> tuple[np.ndarray, np.ndarray, np.
     u, w = np.rint(uv[:, 0]), np.rint(uv[:, 1])
     ok = (z > 1e-6) & np.isfinite(u) & np.isfinite(w) & (u >= 0) & (u < W) & (w >= 0) & (w < H)
     return u[ok].astype(np.int64), w[ok].astype(np.int64), z[ok]
+
+
+def _grow_one_pixel(mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool: ``mask`` grown by one pixel in the 8 directions."""
+    out = mask.copy()
+    out[1:, :] |= mask[:-1, :]
+    out[:-1, :] |= mask[1:, :]
+    g = out.copy()
+    out[:, 1:] |= g[:, :-1]
+    out[:, :-1] |= g[:, 1:]
+    return out
 
 
 def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
@@ -135,7 +151,8 @@ def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
         views: the current views, with ``own`` the part's (or its object's) mask.
     Returns:
         (seen_through, outside): the fraction of the cloud's in-image projections, over views, where the depth reads
-        at least :data:`SEEN_THROUGH_TOL` past the point on a pixel not the part's own; the fraction of ``visible``
+        at least :data:`SEEN_THROUGH_TOL` past the point on a pixel not the part's own nor next to one (a thin part's
+        skin seen edge-on projects onto its silhouette's border, known to a pixel); the fraction of ``visible``
         further than :data:`OUTSIDE_TOL` outside the remembered solid (0 when nothing is visible).
     """
     P = np.asarray(cloud, dtype=np.float64).reshape(-1, 3)
@@ -147,8 +164,8 @@ def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
             continue
         d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
         past = np.isfinite(d) & (d > z + SEEN_THROUGH_TOL)
-        if v.own is not None:
-            past &= ~v.own[vi, ui]
+        if v.own is not None:  # a silhouette is known to a pixel: a point by the part's own pixels is not past it
+            past &= ~_grow_one_pixel(np.asarray(v.own, dtype=bool))[vi, ui]
         seen += int(past.sum())
         n += len(ui)
     V = np.asarray(visible, dtype=np.float64).reshape(-1, 3)

@@ -9,9 +9,13 @@ moved with them, the support of the measurement they came from). :func:`carry_ov
 element by the remembered one when all of these hold:
 
 1. the robot is involved: the fresh element's box is hidden by the robot over at least :data:`ROBOT_INVOLVED` of its
-   pixels and the fresh element is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), or no view
-   sees the part and the robot hides at least :data:`~code_as_monitor.core.elements.ROBOT_HIDDEN_WEAK` of the
-   remembered cloud's projections;
+   pixels and the fresh element is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), or the robot,
+   or the object it holds, hides at least :data:`~code_as_monitor.core.elements.ROBOT_HIDDEN_WEAK` of the remembered
+   cloud's projections (not counting those on the part itself) and either no view sees the part or the part's
+   object is held. A held object turns with the robot and may hide its own part: a book turned upright in the
+   gripper with its spine away from the cameras shows only the spine's 1 x 2.4 cm end, whose longest axis reads
+   as a line across the book; its spine, remembered and turned with it, is behind the cover (the painter counts a
+   held object's pixels as the robot's);
 2. the remembered estimate rests on more evidence (:func:`evidence`): its points not hidden by the robot
    (``points x (1 - robot_hidden)``), capped, when a tracker moved it since it was measured, by the fewest
    observations the tracker reported its position resting on in any frame since
@@ -73,19 +77,85 @@ def key_of(spec: ElementSpec) -> Key:
     return (spec.obj, spec.part, spec.kind.value)
 
 
-def known_from(el: Element, points: np.ndarray, t: float, tracked: float = math.inf) -> KnownElement:
+def known_from(el: Element, points: np.ndarray, t: float, tracked: float = math.inf,
+               rotation: np.ndarray | None = None) -> KnownElement:
     """What to remember of painted element ``el`` whose tracker last had it at ``points`` (k, 3) at time ``t``: its
     cloud moves by the points' mean displacement since painting. ``tracked``: the fewest observations the tracker
     reported the element's position resting on in any frame since ``el`` was measured (``inf``: ``points`` are the
-    measurement, or the tracker's motion is exact); it caps the estimate's :func:`evidence`."""
+    measurement, or the tracker's motion is exact); it caps the estimate's :func:`evidence`.
+
+    The cloud moves rigidly with the points, turned as they turned (:func:`rotation_between`): a held book turned
+    upright carries its painted skin upright with it (moved by the mean displacement alone, the skin of a book painted
+    lying stayed lying across the upright book, and the views contradicted it: stow-book (c), seed 476548990).
+    ``rotation`` (3, 3): the turn when it is known better than the element's own points tell (a line's two ends do
+    not tell its turn about itself: :func:`object_rotations` fits it to all the elements of the object)."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     cloud = None
     if el.cloud is not None and P.shape == el.points.shape and np.all(np.isfinite(P)):
-        cloud = el.cloud + (P.mean(axis=0) - el.points.mean(axis=0))
+        c0, c1 = el.points.mean(axis=0), P.mean(axis=0)
+        R = rotation_between(el.points, P) if rotation is None else np.asarray(rotation, dtype=np.float64)
+        cloud = (el.cloud - c0) @ R.T + c1
     support = el.support
     if support is not None:
         support = replace(support, tracked=min(float(tracked), support.tracked))
     return KnownElement(float(t), P.copy(), cloud, support)
+
+
+def rotation_between(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(3, 3) the rotation that turns an element's points ``before`` (k, 3) into ``after`` (k, 3) about their means.
+
+    One point: none (the identity). A line (2 points): the least rotation taking its old direction to its new one
+    (a turn about the line itself cannot be seen from its two ends). Three or more: the best rigid fit (Kabsch).
+    Points that coincide leave the identity."""
+    A = np.asarray(before, dtype=np.float64).reshape(-1, 3)
+    B = np.asarray(after, dtype=np.float64).reshape(-1, 3)
+    if len(A) < 2 or A.shape != B.shape:
+        return np.eye(3)
+    if len(A) == 2:
+        a, b = A[1] - A[0], B[1] - B[0]
+        na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+        if na < 1e-9 or nb < 1e-9:
+            return np.eye(3)
+        a, b = a / na, b / nb
+        v, c = np.cross(a, b), float(np.dot(a, b))
+        if float(np.linalg.norm(v)) < 1e-9:
+            if c > 0:
+                return np.eye(3)
+            p = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])  # half a turn about any axis across the line
+            p /= np.linalg.norm(p)
+            return 2.0 * np.outer(p, p) - np.eye(3)
+        vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+        return np.eye(3) + vx + vx @ vx / (1.0 + c)
+    X, Y = A - A.mean(axis=0), B - B.mean(axis=0)
+    U, _, Vt = np.linalg.svd(X.T @ Y)
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    return Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+
+
+RIGID_TOL = 0.01
+"""Metres: the elements of one object moved as one solid when the rotation fitted to all their points leaves none
+further than this from where the tracker has it (about the wander of a painted centre on a half-hidden object)."""
+
+
+def object_rotations(moves: Mapping[str, list[tuple[np.ndarray, np.ndarray]]]) -> dict[str, np.ndarray]:
+    """Per object: (3, 3) the rotation its elements turned by, from ``moves`` (object -> [(points when measured (k, 3),
+    points now (k, 3)), one per element]), fitted to all its elements' points together (:func:`rotation_between`);
+    only for objects whose points span a plane (three not on one line) and moved as one solid (every point within
+    :data:`RIGID_TOL` of the fit). Parts of one rigid object turn together: a book's centre point and its spine's two
+    ends fix the book's turn, which the spine alone leaves open about itself."""
+    out: dict[str, np.ndarray] = {}
+    for obj, pairs in moves.items():
+        A = np.vstack([np.asarray(a, dtype=np.float64).reshape(-1, 3) for a, _ in pairs])
+        B = np.vstack([np.asarray(b, dtype=np.float64).reshape(-1, 3) for _, b in pairs])
+        if len(A) < 3 or A.shape != B.shape or not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            continue
+        X = A - A.mean(axis=0)
+        if np.linalg.svd(X, compute_uv=False)[1] < 1e-3:  # on one line (or one point): the turn about it is open
+            continue
+        R = rotation_between(A, B)
+        if float(np.max(np.linalg.norm(X @ R.T + B.mean(axis=0) - B, axis=1))) <= RIGID_TOL:
+            out[obj] = R
+    return out
 
 
 def evidence(support: ElementSupport | None) -> float:
@@ -124,7 +194,7 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
            seen_through: float, outside: float, robot_hidden_known: float) -> tuple[Element | None, CarryDecision]:
     """The element to use for ``spec`` (id ``eid``) and the decision, given the contradiction figures of the
     remembered estimate ``known`` (:func:`~code_as_monitor.geometry.occlusion.contradiction`) and the fraction of
-    its cloud the robot hides now (used when ``fresh`` is None)."""
+    its cloud the robot (or what it holds) hides now, not counting the part seen now (condition 1)."""
     fig = {"from_t": round(known.t, 3), "seen_through": round(seen_through, 3), "outside": round(outside, 3),
            "evidence_known": round(evidence(known.support), 1),
            "evidence_fresh": round(evidence(None if fresh is None else fresh.support), 1)}
@@ -133,14 +203,16 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     if fresh is not None and fresh.support is not None:
         fig["robot_hidden"] = round(fresh.support.robot_hidden, 3)
         fig["shift"] = round(float(np.linalg.norm(fresh.points.mean(axis=0) - known.points.mean(axis=0))), 4)
-    else:
-        fig["robot_hidden_known"] = round(robot_hidden_known, 3)
+    fig["robot_hidden_known"] = round(robot_hidden_known, 3)
+    hidden_fresh = fresh is not None and candidate(fresh)
 
     def keep(reason: str) -> tuple[Element | None, CarryDecision]:
         return fresh, CarryDecision(eid, spec.name, False, reason, fig)
 
     if fresh is None and robot_hidden_known < ROBOT_HIDDEN_WEAK:
         return keep("no view sees it and the robot does not hide where it was")
+    if fresh is not None and not hidden_fresh and robot_hidden_known < ROBOT_HIDDEN_WEAK:
+        return keep("the robot hides neither the fresh element nor, with what it holds, where the part was")
     if fresh is not None and known.points.shape != fresh.points.shape:
         return keep("the remembered estimate has another shape")
     if not np.all(np.isfinite(known.points)):
@@ -158,8 +230,8 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     el = Element(eid, spec.name, spec.kind, known.points.copy(), (spec.obj, spec.part), color_for(eid),
                  cloud=None if known.cloud is None else known.cloud.copy(), support=sup)
     el.object_cloud = el.cloud if (fresh is None or fresh.object_cloud is None or not spec.part) else fresh.object_cloud
-    return el, CarryDecision(eid, spec.name, True, "the robot hides it; the remembered estimate is not contradicted",
-                             fig)
+    why = "the robot hides it" if fresh is None or hidden_fresh else "what the robot holds hides it"
+    return el, CarryDecision(eid, spec.name, True, f"{why}; the remembered estimate is not contradicted", fig)
 
 
 def carry_over(built: dict[int, Element | None], specs: Mapping[int, ElementSpec], known: Mapping[Key, KnownElement],
@@ -181,4 +253,5 @@ def carry_over(built: dict[int, Element | None], specs: Mapping[int, ElementSpec
 
 
 __all__ = ["MAX_OUTSIDE", "MAX_SEEN_THROUGH", "ROBOT_INVOLVED", "CarryDecision", "KnownElement", "candidate",
-           "carry_over", "decide", "evidence", "key_of", "known_from"]
+           "carry_over", "decide", "evidence", "key_of", "known_from", "object_rotations",
+           "rotation_between"]

@@ -106,6 +106,7 @@ class Painter:
         self.connect_points = connect_points
         self._plane: tuple[int, SupportPlane | None] | None = None
         self._split: dict[int, SplitPoint] = {}
+        self._held_now: list[str] = []  # the objects the robot held at the last build (see _held)
 
     def _support(self, obs: Observation) -> SupportPlane | None:
         """The scene's support plane (the table) from this observation's depth, computed once per observation."""
@@ -175,8 +176,10 @@ class Painter:
         """Per usable view: the robot's pixels and those of what it holds (:meth:`_held`), or None where the segmenter
         cannot tell the robot."""
         robots = [self._robot_mask(v) for v, _, _ in per_view]
+        self._held_now = []
         if any(r is not None for r in robots):
-            for name in self._held(obs, per_view):
+            self._held_now = self._held(obs, per_view)
+            for name in self._held_now:
                 for i, (v, _, _) in enumerate(per_view):
                     r = robots[i]
                     if r is not None:
@@ -304,7 +307,10 @@ class Painter:
         built = self.build_elements(obs, specs, text_of)
         decisions: list[CarryDecision] = []
         if known:
-            cands = {i: s for i, s in specs.items() if s.obj != ROBOT and key_of(s) in known and candidate(built[i])}
+            # the robot hides the fresh element, or the part belongs to an object the robot holds (turned with it,
+            # the object may hide its own part: decided on where the part was remembered, carry_over condition 1)
+            cands = {i: s for i, s in specs.items() if s.obj != ROBOT and key_of(s) in known
+                     and (candidate(built[i]) or s.obj in self._held_now)}
             if cands:
                 figures = self._contradiction(obs, cands, built, known)
                 built, decisions = carry_over(built, specs, known, figures)
@@ -335,7 +341,10 @@ class Painter:
             fresh = built.get(eid)
             visible = fresh.cloud if fresh is not None and fresh.cloud is not None else np.empty((0, 3))
             seen, outside = contradiction(cloud, k.points.mean(axis=0), visible, views)
-            out[eid] = (seen, outside, robot_hidden_points(cloud, views))
+            part = [OccluderView(v.depth, v.camera, r, np.asarray(res[j].part_mask if cands[eid].part
+                                                                 else res[j].instance_mask, dtype=bool))
+                    for (v, _, res), r in zip(per_view, robots)]  # the part seen now does not hide itself
+            out[eid] = (seen, outside, robot_hidden_points(cloud, part))
         return out
 
     @staticmethod
