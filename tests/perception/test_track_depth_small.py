@@ -292,8 +292,7 @@ def test_a_part_repainted_from_its_whole_object_does_not_replace_the_part():
     """Re-acquiring a part that its paint had seen: a re-paint where no view saw the part (the whole object's
     masks stood in) is not the part's position (a pen tip inside the holder re-painted as the visible pen
     above it, 8 cm off); a part that was a stand-in from the start may be re-painted as one."""
-    from code_as_monitor.core.elements import Element, ElementKind, ElementSupport
-    from code_as_monitor.perception.trackers.depth_detect import stood_in
+    from code_as_monitor.core.elements import Element, ElementKind, ElementSupport, stood_in
 
     def el(part: str, seen: bool | None) -> Element:
         sup = None if seen is None else ElementSupport(points=40, views=2, residual=0.001, part_seen=seen)

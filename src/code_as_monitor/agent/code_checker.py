@@ -26,7 +26,7 @@ from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
-from code_as_monitor.core.elements import Element
+from code_as_monitor.core.elements import Element, stood_in
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
 from code_as_monitor.core.observation import Observation
 
@@ -348,7 +348,8 @@ class CodeChecker:
                         tracked[e.id], measured[e.id] = math.inf, kept
                     continue
                 fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
-                if fresh is not None and fresh.points.shape == points[e.id].shape:
+                # a part no view sees now, painted from its whole object, is not where the part is: the tracker's
+                if fresh is not None and fresh.points.shape == points[e.id].shape and not stood_in(e, fresh):
                     points[e.id] = fresh.points
                     stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
                     tracked[e.id], measured[e.id] = math.inf, fresh  # measured again now

@@ -267,6 +267,14 @@ class Element:
         )
 
 
+def stood_in(old: Element, new: Element) -> bool:
+    """Whether a re-painted ``new`` of the part element ``old`` is its whole object standing in for a part
+    that ``old`` had seen (``support.part_seen``): not the part's position (a pen's tip re-painted while
+    the holder hides it is the visible pen above the holder, 8 cm off, slot-pen seed 1308640672)."""
+    was, now = old.support, new.support
+    return bool(old.owner[1]) and now is not None and not now.part_seen and (was is None or was.part_seen)
+
+
 def color_for(element_id: int) -> tuple[int, int, int]:
     """The palette colour for an element id."""
     return PALETTE[element_id % len(PALETTE)]

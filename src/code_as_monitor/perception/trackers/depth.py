@@ -27,7 +27,9 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    points; nothing is guessed). A lost body keeps being searched from its last pose (and, while held, from
    where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by :meth:`set_reacquire`
    re-segments its elements (the agent re-runs the painter); their clouds become the body's new model (a part
-   re-painted from its whole object's masks where its earlier paint had seen it is refused: stale). A part
+   re-painted from its whole object's masks where its earlier paint had seen it is refused: stale), except
+   that a lost whole object whose known model registers to its new segmentation keeps that model
+   (:func:`.depth_search.relocate`), and its parts their place on it. A part
    too small to register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part
    moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong;
 5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted
@@ -55,7 +57,7 @@ import math
 
 import numpy as np
 
-from code_as_monitor.core.elements import Element, ElementSpec
+from code_as_monitor.core.elements import Element, ElementSpec, stood_in
 from code_as_monitor.core.errors import CamError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.perception.trackers.base import (
@@ -73,11 +75,10 @@ from code_as_monitor.perception.trackers.depth_detect import (
     model_points,
     principal_extent,
     registrable_objects,
-    stood_in,
     track_small,
 )
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
-from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
+from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, relocate, track_body
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, fit_support_plane
 
 log = logging.getLogger(__name__)
@@ -198,7 +199,8 @@ class DepthTracker(Tracker):
         parent: Owner | None = None
         if part and obj_cloud is not None and len(obj_cloud) and obj_cloud is not cloud:
             parent = (obj, "")
-            if parent not in self._bodies or self._bodies[parent].lost:
+            known = self._bodies.get(parent)
+            if known is None or (known.lost and not relocate(self.config, known, obj_cloud, views, self._plane)):
                 self._bodies[parent] = self._new_body(parent, obj_cloud, views, None)
                 for b in self._bodies.values():  # the parts' poses relative to the new model frame
                     b.rel = (None if b.lost else b.T) if b.parent == parent else b.rel

@@ -135,14 +135,6 @@ def model_points(cloud: np.ndarray, c: DepthTrackerConfig, plane: Plane | None) 
         return pts[np.isfinite(pts).all(axis=1)]
 
 
-def stood_in(old: Element, new: Element) -> bool:
-    """Whether a re-painted ``new`` of the part element ``old`` is its whole object standing in for a part
-    that ``old`` had seen (``support.part_seen``): a pen's tip re-acquired while the holder hides it would
-    become the visible pen above the holder, 8 cm off (slot-pen seed 1308640672); stale is the truth."""
-    was, now = getattr(old, "support", None), getattr(new, "support", None)
-    return bool(old.owner[1]) and now is not None and not now.part_seen and (was is None or was.part_seen)
-
-
 def registrable_objects(elements: Sequence[Element], c: DepthTrackerConfig, plane: Plane | None) -> set[str]:
     """Objects with at least one painted element whose cloud is not too small to register (their small
     parts stay registered with them). A part element that no view saw, built from its whole object's masks

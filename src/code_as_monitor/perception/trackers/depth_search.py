@@ -188,6 +188,38 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
             return best
     return best
 
+def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: list[ViewData],
+             plane: Plane | None) -> bool:
+    """Re-acquire a lost body from a fresh segmentation of its object (``cloud`` (N, 3), world): its model is
+    registered to the cloud from where it was searched, from there shifted onto the cloud's centroid, and
+    from the two shifts along the model's long axis that the views explain best, under the search's checks
+    (evidence in the views, at most ``max_rotation`` turned). Found, the body keeps its model at the new
+    pose (its parts keep their relation to it) and True is returned."""
+    if body.model is None or len(cloud) < c.min_points:
+        return False
+    T0 = body.T_search
+    shifted = T0.copy()
+    shifted[:3, 3] += np.asarray(cloud, dtype=np.float64).mean(axis=0) - apply(T0, body.model.centre[None])[0]
+    # along the model's long axis, which registration barely constrains (a pen that slid down in its
+    # holder): the two shifts whose projection the views explain best
+    P = body.model.points
+    axis = T0[:3, :3] @ np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2][0]
+    slides = []
+    for d in np.arange(-body.model.radius, body.model.radius + 1e-9, 2 * c.voxel):
+        T = T0.copy()
+        T[:3, 3] += d * axis
+        slides.append((_score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
+    best = [T for _, T in sorted(slides, key=lambda x: -x[0])[:2]]
+    found = _search(c, body, views, np.asarray(cloud, dtype=np.float64), [[T0, shifted, *best]],
+                    None if body.model.in_plane else plane)
+    if found is None:
+        return False
+    body.T_prev = body.T = body.T_search = found[0]
+    body.last, body.moved, body.seen_views = found[1], 0.0, found[1].views
+    body.lost, body.lost_before, body.lost_frames = False, body.lost_frames, 0
+    return True
+
+
 def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
     """Whether a guessed pose's evidence is as good as the registered pose's: at least ``unmoved_seen`` of its
     seen points and no more contradicted ones. The registration must then not move the body: a move the
