@@ -192,25 +192,16 @@ def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: l
              plane: Plane | None) -> bool:
     """Re-acquire a lost body from a fresh segmentation of its object (``cloud`` (N, 3), world): its model is
     registered to the cloud from where it was searched, from there shifted onto the cloud's centroid, and
-    from the two shifts along the model's long axis that the views explain best, under the search's checks
-    (evidence in the views, at most ``max_rotation`` turned). Found, the body keeps its model at the new
-    pose (its parts keep their relation to it) and True is returned."""
+    from the two poses along the model's long axis that the views explain best (:func:`_along_axis`), under
+    the search's checks (evidence in the views, at most ``max_rotation`` turned). Found, the body keeps its
+    model at the new pose (its parts keep their relation to it) and True is returned."""
     if body.model is None or len(cloud) < c.min_points:
         return False
+    cloud = np.asarray(cloud, dtype=np.float64)
     T0 = body.T_search
     shifted = T0.copy()
-    shifted[:3, 3] += np.asarray(cloud, dtype=np.float64).mean(axis=0) - apply(T0, body.model.centre[None])[0]
-    # along the model's long axis, which registration barely constrains (a pen that slid down in its
-    # holder): the two shifts whose projection the views explain best
-    P = body.model.points
-    axis = T0[:3, :3] @ np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2][0]
-    slides = []
-    for d in np.arange(-body.model.radius, body.model.radius + 1e-9, 2 * c.voxel):
-        T = T0.copy()
-        T[:3, 3] += d * axis
-        slides.append((_score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
-    best = [T for _, T in sorted(slides, key=lambda x: -x[0])[:2]]
-    found = _search(c, body, views, np.asarray(cloud, dtype=np.float64), [[T0, shifted, *best]],
+    shifted[:3, 3] += cloud.mean(axis=0) - apply(T0, body.model.centre[None])[0]
+    found = _search(c, body, views, cloud, [[T0, shifted, *_along_axis(c, body, T0, cloud, views)]],
                     None if body.model.in_plane else plane)
     if found is None:
         return False
@@ -218,6 +209,40 @@ def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: l
     body.last, body.moved, body.seen_views = found[1], 0.0, found[1].views
     body.lost, body.lost_before, body.lost_frames = False, body.lost_frames, 0
     return True
+
+
+def _along_axis(c: DepthTrackerConfig, body: BodyState, T0: np.ndarray, cloud: np.ndarray,
+                views: list[ViewData]) -> list[np.ndarray]:
+    """Poses along the model's long axis, which registration barely constrains (a pen that slid down its
+    holder, or leans in it): from ``T0``, and from ``T0`` turned so that the model's long axis lies along the
+    cloud's (about the model's centre, put on the cloud's axis), shifted in ``2 * voxel`` steps up to the
+    model's radius; the two whose projection the views explain best (seen points, contradicted ones costing
+    three)."""
+    assert body.model is not None
+    P = body.model.points
+    a_model = T0[:3, :3] @ np.linalg.svd(P - P.mean(axis=0), full_matrices=False)[2][0]
+    mid = cloud.mean(axis=0)
+    a_cloud = np.linalg.svd(cloud - mid, full_matrices=False)[2][0]
+    a_cloud = a_cloud if a_cloud @ a_model >= 0 else -a_cloud
+    ctr = apply(T0, body.model.centre[None])[0]
+    turned = np.eye(4)
+    turned[:3, :3] = _turn(a_model, a_cloud)
+    on_line = mid + ((ctr - mid) @ a_cloud) * a_cloud
+    turned[:3, 3] = on_line - turned[:3, :3] @ ctr
+    scored = []
+    for base, axis in ((T0, a_model), (turned @ T0, a_cloud)):
+        for d in np.arange(-body.model.radius, body.model.radius + 1e-9, 2 * c.voxel):
+            T = base.copy()
+            T[:3, 3] += d * axis
+            scored.append((_score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
+    return [T for _, T in sorted(scored, key=lambda x: -x[0])[:2]]
+
+
+def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation (3, 3) taking unit vector ``a`` onto unit vector ``b`` (not opposite)."""
+    v, cos = np.cross(a, b), float(a @ b)
+    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + K + K @ K / (1.0 + cos) if cos > -1.0 + 1e-9 else np.eye(3)
 
 
 def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
