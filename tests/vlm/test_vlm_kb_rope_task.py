@@ -1,0 +1,84 @@
+"""The kb rope check against the rope-close-square task's own success definition (issue #16).
+
+The task (``sim/tasks/rope_close_square.py``) calls the opening enclosed when at least ``min_coverage`` of
+``n_samples`` points from corner_3 to corner_0 have a resting bead (centre at most two bead radii plus 1 cm
+high) within ``cover_tol`` horizontally. The kb's ``rope_covers_opening`` check must read the same definition
+from the elements; its only deliberate difference is ``margin`` (a sample counts within ``max_gap - margin``,
+for element error), which may make it stricter, never looser.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_vlm_kb import ROPE, gen_coder, infer_objects, program_for
+
+from code_as_monitor.vlm.kb.families import rope
+
+
+def _task():
+    from code_as_monitor.sim.tasks.rope_close_square import RopeCloseSquareConfig, opening_coverage
+
+    return RopeCloseSquareConfig(), opening_coverage
+
+
+def _random_rope(rng: np.random.Generator, cfg) -> dict:
+    """Opening along y at x = 0.5 (corner_3 at y = -0.1, corner_0 at y = +0.1, the square's inner half-size);
+    beads on a wavy line about 1-3 cm outside it, a random run of them lifted (being carried)."""
+    pts = {("square", "corner_0"): [0.5, 0.1, 0.0075], ("square", "corner_3"): [0.5, -0.1, 0.0075]}
+    n = cfg.n_beads
+    y = (np.arange(n) - (n - 1) / 2) * cfg.spacing * rng.uniform(0.7, 1.0) + rng.uniform(-0.03, 0.03)
+    x = 0.5 + rng.uniform(0.005, 0.03) + 0.01 * np.sin(rng.uniform(0, 6) + y * rng.uniform(5, 40))
+    z = np.full(n, cfg.bead_radius)
+    if rng.random() < 0.4:
+        k = int(rng.integers(0, n - 3))
+        z[k:k + int(rng.integers(1, 4))] = 0.05
+    for i in range(n):
+        pts[("rope", f"bead_{i:02d}")] = [x[i], y[i], z[i]]
+    return pts
+
+
+def _task_coverage(pts: dict, cfg, opening_coverage) -> float:
+    beads = np.array([v for k, v in pts.items() if k[0] == "rope"])
+    resting = beads[beads[:, 2] <= 2 * cfg.bead_radius + 0.01, :2]
+    if len(resting) == 0:
+        return 0.0
+    a = np.array(pts[("square", "corner_3")][:2])
+    b = np.array(pts[("square", "corner_0")][:2])
+    return opening_coverage(resting, a, b, cfg.cover_tol, cfg.n_samples)
+
+
+def test_rope_thresholds_are_the_tasks_definition():
+    cfg, _ = _task()
+    th = rope.THRESHOLDS["rope_cover"]
+    assert th["samples"] == cfg.n_samples
+    assert th["max_gap"] == pytest.approx(cfg.cover_tol)
+    assert th["min_fraction"] == pytest.approx(cfg.min_coverage)
+    assert th["max_z"] == pytest.approx(2 * cfg.bead_radius + 0.01)
+    assert 0.0 <= th["margin"] < th["max_gap"]
+
+
+@pytest.mark.parametrize("margin", [0.0, None])
+def test_rope_check_reads_the_tasks_coverage(margin, monkeypatch, make_elements, run_program):
+    """Without the margin, the check's verdict on exact elements is the task's "enclosed" on 300 random rope
+    states; with the kb's margin it never reads enclosed where the task reads open."""
+    cfg, opening_coverage = _task()
+    if margin is not None:
+        monkeypatch.setitem(rope.THRESHOLDS, "rope_cover", {**rope.THRESHOLDS["rope_cover"], "margin": margin})
+    gen, coder = gen_coder()
+    sg = gen.next_subgoal(ROPE, {}, infer_objects(ROPE))
+    rng = np.random.default_rng(16)
+    src = None
+    seen = {True: 0, False: 0}
+    for _ in range(300):
+        pts = _random_rope(rng, cfg)
+        if src is None:
+            src, _ = program_for(coder, sg, make_elements, pts)
+        ok = run_program(src, make_elements(sg, pts))["rope_covers_opening"][0]
+        enclosed = _task_coverage(pts, cfg, opening_coverage) >= cfg.min_coverage
+        seen[enclosed] += 1
+        if margin == 0.0:
+            assert ok == enclosed, pts
+        else:
+            assert not ok or enclosed, pts
+    assert min(seen.values()) >= 30  # both outcomes are exercised
