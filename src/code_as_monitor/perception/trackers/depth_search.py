@@ -172,9 +172,12 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
             g = at_guess[i]
             assert g is not None
-            # keep a guess the registration did not clearly improve, or turned further than a body turns
-            # between two frames
-            if _score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation:
+            # keep a guess the registration did not clearly improve, turned further than a body turns
+            # between two frames, or carried further than twice its coarsest correspondence distance (it
+            # walked onto another surface: a carried pen registered onto the robot's arm, 12 cm off) (the
+            # configuration's coarsest distance, or a fall pass's)
+            if (_score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation
+                    or _shift(model, T0, T) > 2 * max(rounds[0], c.max_correspondence[0])):
                 T, sup = T0, g
             if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
@@ -268,6 +271,11 @@ def moves_body(M: np.ndarray, body: BodyState) -> bool:
         return False
     c = apply(body.T, body.model.centre[None])
     return bool(np.linalg.norm(apply(M, c) - c) > 1e-3)
+
+
+def _shift(model: RigidBody, A: np.ndarray, B: np.ndarray) -> float:
+    """Metres between the model's centre at poses ``A`` and ``B`` (4, 4)."""
+    return float(np.linalg.norm(apply(B, model.centre[None]) - apply(A, model.centre[None])))
 
 
 def _angle(A: np.ndarray, B: np.ndarray) -> float:
