@@ -62,6 +62,13 @@ def _track(scene: Scene, cams, specs: list[ElementSpec], tip=(0.3, 0.3, 0.4), se
     return tr, els
 
 
+def _stick() -> tuple[Box, Box]:
+    """A 12 cm shaft lying on the table with a 1 cm tip at its +x end (the parts of one object ``stick``)."""
+    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
+    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    return shaft, tip
+
+
 def _offsets(els: list[Element], boxes: list[Box]) -> list[np.ndarray]:
     """Each element's painted point relative to its true box centre (what the tracker must carry along)."""
     return [e.points[0] - b.center for e, b in zip(els, boxes)]
@@ -218,8 +225,7 @@ def test_small_part_of_an_object_with_a_registrable_part_stays_registered():
     """A stick's 1 cm tip is small, but its 12 cm shaft is painted too: the tip moves with the registered
     stick (as before); painted alone, the tip is tracked by detection."""
     cams = two_cameras()
-    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
-    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    shaft, tip = _stick()
     scene = StickScene([shaft, tip], table_textured=False)
     both = [ElementSpec("stick shaft", "stick", "shaft", "line"), ElementSpec("stick tip", "stick", "tip")]
     tr, _ = _track(scene, cams, both)
@@ -263,8 +269,7 @@ def test_small_part_whose_object_is_lost_is_stale_not_fitted_elsewhere():
     follows it; when the whole stick is lost (it leaves the crop at once), the tip alone would fit a
     1 cm cube 2 cm away that looks just like it: it must be stale at its last good point, not there."""
     cams = two_cameras()
-    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
-    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    shaft, tip = _stick()
     cube = Box("cube", np.array([0.065, 0.02, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
     scene = StickAndCubeScene([shaft, tip, cube], table_textured=False)
     specs = [ElementSpec("stick shaft", "stick", "shaft", "line"), ElementSpec("stick tip", "stick", "tip")]
@@ -311,8 +316,7 @@ def test_part_keeps_its_place_when_its_object_is_reacquired():
     model is relocated onto its new segmentation, so the tip comes back where it is on the stick, not stale
     for good (a new model for the stick would drop the tip's relation to it)."""
     cams = two_cameras()
-    shaft = Box("shaft", np.array([0.0, 0.0, 0.005]), np.array([0.12, 0.012, 0.01]), textured=False)
-    tip = Box("tip", np.array([0.065, 0.0, 0.005]), np.full(3, 0.01), color=(40, 200, 40), textured=False)
+    shaft, tip = _stick()
     scene = StickAndCubeScene([shaft, tip], table_textured=False)
     specs = [ElementSpec("stick shaft", "stick", "shaft", "line"), ElementSpec("stick tip", "stick", "tip")]
     tr, els = _track(scene, cams, specs)
