@@ -39,6 +39,26 @@ def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * Kx + (1.0 - np.cos(angle)) * (Kx @ Kx)
 
 
+def rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(3, 3) the least rotation taking direction ``a`` (3,) onto direction ``b`` (3,) (any lengths); opposite
+    directions get half a turn about an axis across ``a``; a zero-length direction gives the identity."""
+    a = np.asarray(a, dtype=np.float64).reshape(3)
+    b = np.asarray(b, dtype=np.float64).reshape(3)
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if na < 1e-9 or nb < 1e-9:
+        return np.eye(3)
+    a, b = a / na, b / nb
+    v, c = np.cross(a, b), float(np.dot(a, b))
+    if float(np.linalg.norm(v)) < 1e-9:
+        if c > 0:
+            return np.eye(3)
+        p = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+        p /= np.linalg.norm(p)
+        return 2.0 * np.outer(p, p) - np.eye(3)
+    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+
+
 def compose(*transforms: np.ndarray) -> np.ndarray:
     """Product ``T_1 @ T_2 @ ... @ T_n`` of (4, 4) rigid transforms (identity when none given)."""
     out = np.eye(4)

@@ -40,6 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from code_as_monitor.core.elements import ROBOT_HIDDEN_WEAK, Element, ElementSpec, ElementSupport, color_for
+from code_as_monitor.geometry.transforms import rotation_onto
 
 ROBOT_INVOLVED = 0.1
 """The fresh element's box must be hidden by the robot over at least this fraction for a carry-over to be tried (a
@@ -112,20 +113,7 @@ def rotation_between(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     if len(A) < 2 or A.shape != B.shape:
         return np.eye(3)
     if len(A) == 2:
-        a, b = A[1] - A[0], B[1] - B[0]
-        na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
-        if na < 1e-9 or nb < 1e-9:
-            return np.eye(3)
-        a, b = a / na, b / nb
-        v, c = np.cross(a, b), float(np.dot(a, b))
-        if float(np.linalg.norm(v)) < 1e-9:
-            if c > 0:
-                return np.eye(3)
-            p = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])  # half a turn about any axis across the line
-            p /= np.linalg.norm(p)
-            return 2.0 * np.outer(p, p) - np.eye(3)
-        vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-        return np.eye(3) + vx + vx @ vx / (1.0 + c)
+        return rotation_onto(A[1] - A[0], B[1] - B[0])
     X, Y = A - A.mean(axis=0), B - B.mean(axis=0)
     U, _, Vt = np.linalg.svd(X.T @ Y)
     d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0

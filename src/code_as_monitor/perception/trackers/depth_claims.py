@@ -13,7 +13,7 @@ import numpy as np
 
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
 from code_as_monitor.perception.trackers.depth_body import apply, invert, support
-from code_as_monitor.perception.trackers.depth_search import BodyState
+from code_as_monitor.perception.trackers.depth_search import BodyState, centre_shift
 from code_as_monitor.perception.trackers.depth_views import ViewData
 
 log = logging.getLogger(__name__)
@@ -83,9 +83,8 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
     if part.model is None or parent.model is None or parent.lost or part.rel is None:
         return
     T_rigid = parent.T @ part.rel
-    ctr = part.model.centre[None]
     if not part.lost:
-        if float(np.linalg.norm(apply(part.T, ctr) - apply(T_rigid, ctr))) <= c.depth_tol:
+        if centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
             return
         if own_evidence(c, part, parent, views) >= c.min_seen:
             part.rel = invert(parent.T) @ part.T  # it moved on its own
@@ -95,7 +94,7 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
         return  # the frame denies it where the object carries it: the part's own result stands
     if not part.lost:
         part.T = part.T_prev  # the slid registration is not a pose the part had
-    part.moved = float(np.linalg.norm(apply(T_rigid, ctr) - apply(part.T, ctr)))
+    part.moved = centre_shift(part.model, part.T, T_rigid)
     part.T_prev, part.T, part.T_search = part.T, T_rigid, T_rigid
     part.last = None  # no evidence of its own: next frame it is not kept unmoved on it (its object may be lost)
     part.lost, part.lost_before, part.lost_frames = False, part.lost_frames, 0

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from code_as_monitor.geometry.transforms import rotation_onto
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
 from code_as_monitor.perception.trackers.depth_body import RigidBody, Support, apply, invert, register, support
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, crop_scene
@@ -177,7 +178,7 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
             # walked onto another surface: a carried pen registered onto the robot's arm, 12 cm off) (the
             # configuration's coarsest distance, or a fall pass's)
             if (_score(g) > _score(sup) or _explains_as_well(c, g, sup) or _angle(T0, T) > c.max_rotation
-                    or _shift(model, T0, T) > 2 * max(rounds[0], c.max_correspondence[0])):
+                    or centre_shift(model, T0, T) > 2 * max(rounds[0], c.max_correspondence[0])):
                 T, sup = T0, g
             if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
@@ -229,7 +230,7 @@ def _along_axis(c: DepthTrackerConfig, body: BodyState, T0: np.ndarray, cloud: n
     a_cloud = a_cloud if a_cloud @ a_model >= 0 else -a_cloud
     ctr = apply(T0, body.model.centre[None])[0]
     turned = np.eye(4)
-    turned[:3, :3] = _turn(a_model, a_cloud)
+    turned[:3, :3] = rotation_onto(a_model, a_cloud)
     on_line = mid + ((ctr - mid) @ a_cloud) * a_cloud
     turned[:3, 3] = on_line - turned[:3, :3] @ ctr
     scored = []
@@ -239,13 +240,6 @@ def _along_axis(c: DepthTrackerConfig, body: BodyState, T0: np.ndarray, cloud: n
             T[:3, 3] += d * axis
             scored.append((_score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
     return [T for _, T in sorted(scored, key=lambda x: -x[0])[:2]]
-
-
-def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotation (3, 3) taking unit vector ``a`` onto unit vector ``b`` (not opposite)."""
-    v, cos = np.cross(a, b), float(a @ b)
-    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + K + K @ K / (1.0 + cos) if cos > -1.0 + 1e-9 else np.eye(3)
 
 
 def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
@@ -273,7 +267,7 @@ def moves_body(M: np.ndarray, body: BodyState) -> bool:
     return bool(np.linalg.norm(apply(M, c) - c) > 1e-3)
 
 
-def _shift(model: RigidBody, A: np.ndarray, B: np.ndarray) -> float:
+def centre_shift(model: RigidBody, A: np.ndarray, B: np.ndarray) -> float:
     """Metres between the model's centre at poses ``A`` and ``B`` (4, 4)."""
     return float(np.linalg.norm(apply(B, model.centre[None]) - apply(A, model.centre[None])))
 
