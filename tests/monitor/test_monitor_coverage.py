@@ -9,7 +9,7 @@ from hostile_programs import GOOD
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.coverage import CoverageError, check_path_coverage
 from code_as_monitor.monitor.instrument import instrument
-from code_as_monitor.monitor.perturb import TURNS_PER_ELEMENT, make_probes
+from code_as_monitor.monitor.perturb import DEPARTURES_PER_ELEMENT, TURNS_PER_ELEMENT, make_probes
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
 
@@ -97,7 +97,8 @@ def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
     report = _run(GOOD, constraints, scene, sandbox)
     assert report.ok and report.fraction == 1.0
     assert report.covered == {b.id for b in report.branches}
-    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2 + 2  # state, 96 perturbations, turns, 2 meetings, 2 placements
+    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2
+    # state, 96 perturbations, turns, 2 meetings, the departures of 2 elements, 2 placements
     assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
 
 
@@ -176,7 +177,7 @@ def test_overrun_on_a_branch_stops_early(constraints, scene):
 
 def test_factory_and_rejection_before_running(constraints, scene):
     report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=32)
-    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2  # and 2 meetings, 2 placements of 2 elements
+    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2  # 2 elements
     with pytest.raises(ProgramError, match="'while'"):
         _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
 
@@ -185,7 +186,8 @@ def test_probes_are_consistent_and_deterministic(scene):
     H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
     Ht = np.linspace(0.0, 0.4, 5)
     probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
-    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 + 2 and probes[0].description.startswith("the current state")
+    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2
+    assert probes[0].description.startswith("the current state")
     assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
     for p in probes:
         T = len(p.history_t)
@@ -207,6 +209,13 @@ def test_probes_are_consistent_and_deterministic(scene):
         a = int(p.description.split()[1])
         np.testing.assert_allclose(p.history[a][0], scene[a], atol=1e-12)  # it began where it was
         assert np.linalg.norm(p.elements[a].mean(axis=0)[:2] - p.elements[1 - a].mean(axis=0)[:2]) < 1e-9
+    gone = [p for p in probes if "moved away" in p.description]
+    assert len(gone) == 2 * DEPARTURES_PER_ELEMENT  # each element knocked away while the other stayed
+    for p in gone:
+        a = int(p.description.split()[1])
+        np.testing.assert_allclose(p.history[a][0], scene[a], atol=1e-12)  # it began where it is in the scene
+        np.testing.assert_allclose(p.elements[1 - a], scene[1 - a], atol=1e-12)  # the other stayed
+        assert 0.04 - 1e-9 <= np.linalg.norm(p.elements[a].mean(axis=0) - scene[a].mean(axis=0)) <= 0.3 + 1e-9
     placed = [p for p in probes if "placed" in p.description]
     assert len(placed) == 2  # element 0 above element 1 and element 1 above element 0
     for p, (i, j) in zip(placed, [(0, 1), (1, 0)]):
@@ -251,3 +260,25 @@ def test_a_check_that_can_never_fail_or_never_hold_is_rejected(sandbox, constrai
         _run(NEVER_TRUE, constraints, scene, sandbox)
     assert "check_b: returned False on all" in str(err.value) and "never be satisfied" in str(err.value)
     assert "check_a" not in str(err.value).split("never changes")[1]
+
+
+STAYS_OR_HELD = _a('''
+m = displacement(H[1])
+d = distance(E[0], centroid(E[1]))
+if m <= 0.02 or d <= 0.03:
+    return True, "in place or in the gripper"
+return False, "moved while the gripper approached"
+''')
+
+
+def test_a_stays_or_held_check_is_covered_when_the_gripper_starts_at_the_object(sandbox, constraints, scene,
+                                                                               monkeypatch):
+    """A re-grasp starts with the tip at the object: only a departure (the object moved away since the oldest
+    frame, the tip stayed) both moves the object and takes it from the tip, so without it the check reads as
+    one that can never fail (a pen re-grasped in its holder was re-planned 22 times at one instant)."""
+    at_tip = {0: scene[1].mean(axis=0, keepdims=True) + np.array([[0.0, 0.0, 0.01]]), 1: scene[1]}
+    report = _run(STAYS_OR_HELD, constraints, at_tip, sandbox)
+    assert report.ok and report.outcomes["check_a"][1] > 0
+    monkeypatch.setattr("code_as_monitor.monitor.perturb.DEPARTURES_PER_ELEMENT", 0)
+    with pytest.raises(CoverageError, match="check_a: returned True on all"):
+        _run(STAYS_OR_HELD, constraints, at_tip, sandbox)

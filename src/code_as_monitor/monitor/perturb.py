@@ -5,10 +5,11 @@ to ~0.3 m, raised or lowered, lines and surfaces rotated, elements moved apart o
 piled on one another (degenerate lines and surfaces), elements swapped, histories that are
 static, moving, turning (a line or surface that rotated into its current pose), short (T = 1, 2) or
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
-up to the suction tip) and placements (one element put just above another: a block over its target).
-Elements of one object part (``groups``: several point elements when lines and surfaces are handed over as
-unconnected points) move together in the meetings and placements and turn together in turning histories, as the
-part they stand for would.
+up to the suction tip), departures (one element moved away since the oldest frame while the others stayed:
+a block knocked off the gripper's path) and placements (one element put just above another: a block over
+its target). Elements of one object part (``groups``: several point elements when lines and surfaces are
+handed over as unconnected points) move together in the meetings, departures and placements and turn together
+in turning histories, as the part they stand for would.
 Every array is world frame, metres; times are seconds.
 """
 
@@ -100,6 +101,12 @@ after the turning histories: a check that an object rose with the gripper since 
 carried up by the suction tip) needs them, also when the gripper starts at the object (a re-grasp). All
 ordered pairs up to this many, else a seeded sample of pairs."""
 
+DEPARTURES_PER_ELEMENT = 2
+"""Departure probes per element (or part) added after the meetings: the element moved away since the oldest frame
+(knocked or slid 4-30 cm off where it is now) while the others stayed. A check that an object stays put unless the
+gripper holds it is False only when the object both moved and is away from the gripper; when a subgoal starts with
+the gripper at the object (a re-grasp), no other probe moves one element's current point and its history apart."""
+
 MAX_PLACEMENTS = 30
 """Placement probes (element i put just above element j) added after the meetings, last: a check that a
 block ends up over its target is only True near that configuration, which random translations of a few
@@ -110,7 +117,8 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
                 history_t: np.ndarray | None, t: float, n: int, seed: int = 0,
                 groups: dict[int, list[int]] | None = None) -> list[Probe]:
     """The unperturbed state first, then ``n`` perturbations cycling through the families above, then the
-    turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`) and the placements
+    turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`), the departures
+    (:data:`DEPARTURES_PER_ELEMENT` per element or part) and the placements
     (:data:`MAX_PLACEMENTS`). ``groups``: element id -> the ids of its object part (itself included; None or a
     missing id: the element alone); a meeting or placement moves an element's whole group rigidly, except
     between two elements of one group."""
@@ -240,6 +248,21 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     if len(pairs) > MAX_MEETINGS:
         pairs = [pairs[k] for k in sorted(meet_rng.choice(len(pairs), MAX_MEETINGS, replace=False))]
     probes += [meeting(a, b) for a, b in pairs]
+    leave_rng = np.random.default_rng([seed, 4])  # its own stream: the probes before stay as they were
+
+    def departure(g: list[int]) -> Probe:
+        E0, H0, Ht0 = base
+        d = leave_rng.normal(size=3)
+        d[2] *= 0.3  # mostly sideways, as a knocked or sliding object moves
+        o = d / max(float(np.linalg.norm(d)), 1e-12) * float(leave_rng.uniform(0.04, 0.3))
+        E = {i: (p + o if i in g else p.copy()) for i, p in E0.items()}
+        H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
+        Ht = np.concatenate([Ht0 - _dt(Ht0), [t]])
+        what = f"element {g[0]}" if len(g) == 1 else f"elements {', '.join(map(str, g))} (one part)"
+        return Probe(f"{what} moved away by {_fmt(o)} m since the oldest frame, the others stayed", E, H, Ht)
+
+    movers = sorted({tuple(sorted(k for k in (groups or {}).get(i, [i]) if k in base[0]) or [i]) for i in ids})
+    probes += [departure(list(g)) for g in movers for _ in range(DEPARTURES_PER_ELEMENT)]
     place_rng = np.random.default_rng([seed, 3])  # a stream of its own
     pairs = [(i, j) for i in ids for j in ids if i != j]
     if len(pairs) > MAX_PLACEMENTS:
