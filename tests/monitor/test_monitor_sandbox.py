@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -140,6 +141,57 @@ def test_module_level_budget_is_cpu_time_not_a_busy_machines_wall_time(constrain
     with Sandbox(load_timeout_s=1.0, load_wall_s=1.5, deadline_s=5.0) as sb, \
             pytest.raises(ProgramError, match="did not finish"):
         _stopped_while_loading(sb, constraints, 3.0)
+
+
+def _resume(pid: int) -> None:
+    with contextlib.suppress(ProcessLookupError):  # killed meanwhile (the sandbox gave up on it)
+        os.kill(pid, signal.SIGCONT)
+
+
+def _stopped_at_spawn(sb: Sandbox, stop_s: float) -> None:
+    """Make ``sb``'s next worker stopped (SIGSTOP) from its spawn for ``stop_s`` seconds: a machine too busy to
+    run it while it boots."""
+    import signal
+    import threading
+
+    from code_as_monitor.monitor import lifecycle
+
+    make = lifecycle.WorkerProcess
+
+    def stopped(*args, **kw):
+        w = make(*args, **kw)
+        os.kill(w.pid, signal.SIGSTOP)
+        timer = threading.Timer(stop_s, _resume, (w.pid,))
+        timer.daemon = True
+        timer.start()
+        return w
+
+    lifecycle.WorkerProcess = stopped
+    try:
+        sb._spare_pool()  # the pool's first worker is spawned (stopped) now
+        time.sleep(0.2)
+    finally:
+        lifecycle.WorkerProcess = make
+
+
+def test_start_budget_is_cpu_time_not_a_busy_machines_wall_time(constraints, scene):
+    """A worker the machine does not run for 2.5 s while it boots has used none of its 1 s start budget: the start
+    waits (up to the wall ceiling) and succeeds; past the ceiling it fails."""
+    sb = Sandbox(start_timeout_s=1.0, deadline_s=5.0)
+    try:
+        _stopped_at_spawn(sb, 2.5)
+        sb.start()
+        sb.load(GOOD, constraints)
+        assert [v.ok for v in sb.evaluate(scene, None, None, 0.0)] == [True, True]
+    finally:
+        sb.close()
+    sb = Sandbox(start_timeout_s=1.0, start_wall_s=1.5, deadline_s=5.0)
+    try:
+        _stopped_at_spawn(sb, 3.0)
+        with pytest.raises(SandboxError, match="not ready after"):
+            sb.start()
+    finally:
+        sb.close()
 
 
 def test_evaluate_before_load_and_bad_limits():

@@ -43,7 +43,10 @@ class WorkerLifecycle:
 
     Args:
         memory_mb, cpu_s: each worker's resource limits (see :class:`~.sandbox.Sandbox`).
-        start_timeout_s: how long :meth:`start` waits for a spare to be ready.
+        start_timeout_s: CPU seconds a starting worker may use before its ready record is overdue. The wait is
+            wall-clock time, extended while the worker has used less CPU than this since it was spawned (a busy
+            machine, not the worker, made it late), up to ``start_wall_s`` after the spawn.
+        start_wall_s: wall-clock ceiling of that wait, seconds (default: 10 x ``start_timeout_s``).
         spares: workers kept started beyond the active one (>= 1).
         confine: workers install the kernel confinement.
         allow_unconfined: a worker that could not confine itself may still run programs (explicit opt-out).
@@ -53,10 +56,12 @@ class WorkerLifecycle:
     """
 
     def __init__(self, memory_mb: int, cpu_s: int, start_timeout_s: float, spares: int, confine: bool,
-                 allow_unconfined: bool) -> None:
+                 allow_unconfined: bool, start_wall_s: float | None = None) -> None:
         self.memory_mb = int(memory_mb)
         self.cpu_s = int(cpu_s)
         self.start_timeout_s = float(start_timeout_s)
+        self.start_wall_s = max(self.start_timeout_s,
+                                10.0 * self.start_timeout_s if start_wall_s is None else float(start_wall_s))
         self.n_spares = int(spares)
         self.confine = bool(confine)
         self.allow_unconfined = bool(allow_unconfined)
@@ -122,6 +127,22 @@ class WorkerLifecycle:
         if self.confine and flags & _CONFINED != _CONFINED:
             log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
 
+    def _absorb_ready(self, w: WorkerProcess, deadline: float) -> None:
+        """Wait for ``w``'s ready record until ``deadline`` (wall), then on while the worker has used less than
+        ``start_timeout_s`` of CPU time since its spawn, until ``start_wall_s`` after the spawn (raises
+        :class:`LateError` past either; where CPU time cannot be read, at ``deadline``). Under load a worker
+        that boots in half a second of CPU can wait tens of seconds for a core."""
+        ceiling = w.started + self.start_wall_s
+        while True:
+            try:
+                self._absorb(w, deadline)
+                return
+            except LateError:
+                used, now = w.cpu_seconds(), time.perf_counter()
+                if not used < self.start_timeout_s or now >= ceiling:  # NaN: not known
+                    raise
+                deadline = min(ceiling, now + self.start_timeout_s - used)
+
     def _ready_worker(self, deadline: float, refill: bool = True) -> WorkerProcess:
         """A spare that has said ready (started if need be), replacing ones that die on the way up."""
         while True:
@@ -129,7 +150,7 @@ class WorkerLifecycle:
             if w is None:
                 raise SandboxError(f"no sandbox worker started within {self.start_timeout_s:.1f} s")
             try:
-                self._absorb(w, deadline)
+                self._absorb_ready(w, deadline)
                 self._start_failures = 0
                 return w
             except SandboxError:
@@ -137,7 +158,8 @@ class WorkerLifecycle:
                 raise
             except LateError:
                 self._retire(w)
-                raise SandboxError(f"sandbox worker not ready after {self.start_timeout_s:.1f} s") from None
+                raise SandboxError(f"sandbox worker not ready after {self.start_timeout_s:.1f} s of CPU time "
+                                   f"({self.start_wall_s:.0f} s wall at most)") from None
             except (EOFError, OSError, ReplyError) as exc:
                 why = f"{type(exc).__name__}: {exc}; {w.how_it_ended()}"
                 self._retire(w)

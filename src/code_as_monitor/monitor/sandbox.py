@@ -48,7 +48,10 @@ class Sandbox(WorkerLifecycle):
         deadline_s: wall-clock budget of one :meth:`evaluate` round trip, seconds (default 20 ms).
         memory_mb: address space a worker may allocate beyond its size after start-up, MiB.
         cpu_s: lifetime CPU seconds of one worker (``RLIMIT_CPU``, a backstop; it is then replaced).
-        start_timeout_s: how long :meth:`start` and :meth:`load` wait for a spare to be ready.
+        start_timeout_s: CPU seconds a starting worker may use before :meth:`start` and :meth:`load` give up on
+            its ready record; the wait is wall-clock time, extended while the worker has used less CPU than this
+            (a busy machine made it late), up to ``start_wall_s`` after its spawn.
+        start_wall_s: wall-clock ceiling of that wait, seconds (default: 10 x ``start_timeout_s``).
         load_timeout_s: CPU seconds the program's module-level code may use in :meth:`load`. The wait is
             wall-clock time, extended while the worker has used less CPU than this (a busy machine, not the
             program, made it late), up to ``load_wall_s``.
@@ -64,7 +67,7 @@ class Sandbox(WorkerLifecycle):
     def __init__(self, deadline_s: float = 0.020, memory_mb: int = 512, cpu_s: int = 600,
                  start_timeout_s: float = 20.0, load_timeout_s: float = 2.0, spares: int = 1,
                  confine: bool = True, allow_unconfined: bool | None = None,
-                 load_wall_s: float | None = None) -> None:
+                 load_wall_s: float | None = None, start_wall_s: float | None = None) -> None:
         try:
             check_range("Sandbox", "deadline_s", deadline_s, *DEADLINE_S_RANGE)
             for f, v, lo in (("memory_mb", memory_mb, 32), ("cpu_s", cpu_s, 1), ("spares", spares, 1)):
@@ -76,7 +79,7 @@ class Sandbox(WorkerLifecycle):
         if not confine and not allow_unconfined:
             raise SandboxError("confine=False runs generated code without kernel confinement; pass "
                                "allow_unconfined=True as well to opt out explicitly")
-        super().__init__(memory_mb, cpu_s, start_timeout_s, spares, confine, allow_unconfined)
+        super().__init__(memory_mb, cpu_s, start_timeout_s, spares, confine, allow_unconfined, start_wall_s)
         self.deadline_s = float(deadline_s)
         self.load_timeout_s = float(load_timeout_s)
         self.load_wall_s = max(self.load_timeout_s, 10.0 * self.load_timeout_s if load_wall_s is None else load_wall_s)
