@@ -52,3 +52,17 @@ def test_bad_transforms_are_named() -> None:
         rotation_about([0, 0, 0], 1.0)
     with pytest.raises(GeometryError, match="points must be"):
         transform_points(np.eye(4), np.zeros((4, 2)))
+
+
+def test_kabsch_recovers_a_rigid_motion_and_never_a_reflection():
+    from code_as_monitor.geometry.transforms import kabsch
+
+    rng = np.random.default_rng(0)
+    src = rng.normal(size=(12, 3))
+    R0 = rotation_about(np.array([1.0, 2.0, 0.5]), 1.1)
+    t0 = np.array([0.3, -0.2, 0.05])
+    R, t, rms = kabsch(src, src @ R0.T + t0)
+    assert np.allclose(R, R0, atol=1e-9) and np.allclose(t, t0, atol=1e-9) and rms < 1e-9
+    mirrored = src * np.array([1.0, 1.0, -1.0])  # no rotation maps a cloud onto its mirror image
+    R, _, rms = kabsch(src, mirrored)
+    assert np.isclose(np.linalg.det(R), 1.0) and rms > 0.1

@@ -59,6 +59,24 @@ def rotation_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.eye(3) + vx + vx @ vx / (1.0 + c)
 
 
+def kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares rigid transform with ``dst ≈ src @ R.T + t`` (Kabsch: SVD of the cross-covariance, reflection
+    removed).
+
+    Args:
+        src, dst: (n, 3) corresponding points, n >= 3 not on one line for a unique rotation.
+    Returns:
+        R (3, 3) proper rotation, t (3,), RMS residual (metres).
+    """
+    cs, cd = src.mean(axis=0), dst.mean(axis=0)
+    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
+    R = Vt.T @ D @ U.T
+    t = cd - cs @ R.T
+    rms = float(np.sqrt(((src @ R.T + t - dst) ** 2).sum(axis=1).mean()))
+    return R, t, rms
+
+
 def compose(*transforms: np.ndarray) -> np.ndarray:
     """Product ``T_1 @ T_2 @ ... @ T_n`` of (4, 4) rigid transforms (identity when none given)."""
     out = np.eye(4)

@@ -40,7 +40,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from code_as_monitor.core.elements import ROBOT_HIDDEN_WEAK, Element, ElementSpec, ElementSupport, color_for
-from code_as_monitor.geometry.transforms import rotation_onto
+from code_as_monitor.geometry.transforms import kabsch, rotation_onto
 
 ROBOT_INVOLVED = 0.1
 """The fresh element's box must be hidden by the robot over at least this fraction for a carry-over to be tried (a
@@ -114,10 +114,7 @@ def rotation_between(before: np.ndarray, after: np.ndarray) -> np.ndarray:
         return np.eye(3)
     if len(A) == 2:
         return rotation_onto(A[1] - A[0], B[1] - B[0])
-    X, Y = A - A.mean(axis=0), B - B.mean(axis=0)
-    U, _, Vt = np.linalg.svd(X.T @ Y)
-    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
-    return Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return kabsch(A, B)[0]
 
 
 RIGID_TOL = 0.01

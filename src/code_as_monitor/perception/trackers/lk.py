@@ -54,6 +54,7 @@ import numpy as np
 from code_as_monitor.core.elements import Element, ElementKind
 from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import Observation, View
+from code_as_monitor.geometry.transforms import kabsch
 from code_as_monitor.perception.trackers.base import KinematicAnchor, LKTrackerConfig, Tracker, TrackResult
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
@@ -62,7 +63,6 @@ from code_as_monitor.perception.trackers.lk_state import (
     chroma_kept,
     gray_of,
     inside,
-    kabsch,
     nanmean,
     nanmedian_axis,
     slots,

@@ -1,5 +1,5 @@
-"""Pieces of the LK tracker (:mod:`.lk`): the per-view track state, the rigid (Kabsch) fit, and the
-NaN-aware fusion over views. Points are world metres; pixels are (u, v) float32.
+"""Pieces of the LK tracker (:mod:`.lk`): the per-view track state and the NaN-aware fusion over views (the rigid
+fit is :func:`code_as_monitor.geometry.transforms.kabsch`). Points are world metres; pixels are (u, v) float32.
 """
 
 from __future__ import annotations
@@ -9,23 +9,6 @@ import warnings
 import numpy as np
 
 from code_as_monitor.core.observation import Observation, View
-
-
-def kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-    """Least-squares rigid transform with ``dst ≈ src @ R.T + t``.
-
-    Args:
-        src, dst: (n, 3) corresponding points, n >= 3.
-    Returns:
-        R (3, 3) proper rotation, t (3,), RMS residual (metres).
-    """
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0])
-    R = Vt.T @ D @ U.T
-    t = cd - cs @ R.T
-    rms = float(np.sqrt(((src @ R.T + t - dst) ** 2).sum(axis=1).mean()))
-    return R, t, rms
 
 
 class ViewState:
