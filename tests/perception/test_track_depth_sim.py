@@ -166,13 +166,40 @@ def test_lower_block_stays_put_while_the_next_is_set_on_it():
             (round(f["t"], 2), round(1e3 * f["err"], 1)) for f in rest if f["err"] >= 0.005]
 
 
-def test_pen_tip_followed_into_the_holder_with_its_pen():
+@pytest.mark.parametrize("seed", [47304037, 101])
+def test_pen_painted_upright_is_followed_as_it_is_let_go_into_the_holder(seed):
+    """The scripted slot-pen (undisturbed), the pen's tip painted at the insert's start, as the agent paints it:
+    held upright above the holder, its model one side of the pen. Let go, the pen drops a centimetre and leans in
+    the holder (seen with these seeds: from where it was, ICP turned it 9 degrees onto a pose that passed and lost
+    it the next frame, its relocation failed and the tip stayed stale to the end, so the final check had no
+    verdict; or the tip registered 3.5 cm off onto the holder's wall). After the pen's lowest point the tip must be
+    reported, on the true tip."""
+    with make_env("slot-pen", seed=seed, disturbed=False, world_config=WorldConfig(width=320, height=240)) as env:
+        sc, frames = None, []
+        for action in env.task.default_plan():
+            if action.skill == "insert":
+                sc = Scored(env, "pen", "tip")
+            if sc is None:
+                for _ in _policy(env, action):  # the policy ticks the world
+                    pass
+            else:
+                frames += sc.run(_policy(env, action), action.skill)
+        lowest = int(np.argmin([f["truth"][2] for f in frames]))
+        after = frames[lowest:]
+        assert len(after) >= 10 and not any(f["stale"] for f in after), [f["t"] for f in after if f["stale"]]
+        assert all(f["err"] < 0.008 for f in frames if not f["stale"]), [
+            (round(f["t"], 2), round(1e3 * f["err"], 1)) for f in frames if not f["stale"] and f["err"] >= 0.008]
+
+
+@pytest.mark.parametrize("seed", [47304037, 101])
+def test_pen_tip_followed_into_the_holder_with_its_pen(seed):
     """The scripted slot-pen (undisturbed): the pen's tip (a part of the pen) hides in the holder as the pen
-    goes in. Its few points must not slide up the pen's visible body (seen with this episode seed: the
+    goes in. Its few points must not slide up the pen's visible body (seen with seed 47304037: the
     estimate stuck at the rim, 4-5 cm above the true tip, and the monitor read "pen dropped ... not inside
-    pen_holder" after the release); a reported tip is on the true one, and while the held pen goes in it is
+    pen_holder" after the release) nor onto the holder's wall (seed 101: 3.5 cm off from the moment it entered,
+    reported fresh to the end); a reported tip is on the true one, and while the held pen goes in it is
     reported where the pen carries it (not only stale)."""
-    with make_env("slot-pen", seed=47304037, disturbed=False, world_config=WorldConfig(width=320, height=240)) as env:
+    with make_env("slot-pen", seed=seed, disturbed=False, world_config=WorldConfig(width=320, height=240)) as env:
         sc = Scored(env, "pen", "tip")
         rim = float(env.world.position("pen_holder/rim")[2])  # the rim link sits at the opening's height
         frames = []

@@ -64,33 +64,35 @@ def resolve_overlaps(c: DepthTrackerConfig, bodies: list[BodyState]) -> None:
 
 
 def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, views: list[ViewData]) -> None:
-    """Keep a part (``part``) where its object (``parent``, registered this frame) carries it, unless the
-    part moved on its own. Call after the part's own frame.
+    """Keep a part (``part``) where its object (``parent``, registered this frame) carries it, unless the part moved on
+    its own. Call after the part's own frame.
 
-    A part can leave its object's pose only into space its object did not fill (a drawer's handle pulled
-    out in front of the cabinet, a lid lifted off its pot): a registration more than ``depth_tol`` from
-    where the object carries it is the part's own move, and updates its pose relative to the object
-    (``rel``), when at least ``min_seen`` of its points (the evidence any pose needs) are seen off the
-    object's model surface. With fewer, its evidence is the object's own surface: the part's few points
-    matched the object's other points (a pen's tip, hidden as it enters a holder, slides up the pen's
-    visible body): it slid. A slid part, or one the frame lost, is put where the object carries it when
-    the frame does not deny it there (at most ``max_contradiction`` of its points in view read behind
-    it; points hidden by a nearer surface deny nothing: a stick's end seen moving along the stick while
-    the uniform stick registers unmoved is denied there); its evidence is then the object's registration
-    (``on_parent``) and it has none of its own (``last`` is None: with its object lost the next frame it is
-    not kept where it was on its few points but searched like a lost body). Denied, the
+    A part can leave its object's pose only into space its object did not fill (a drawer's handle pulled out in
+    front of the cabinet, a lid lifted off its pot): a registration more than ``depth_tol`` from where the object
+    carries it is the part's own move, and updates its pose relative to the object (``rel``), when at least
+    ``min_seen`` of its points (the evidence any pose needs) are seen off the object's model surface and either the
+    end-effector holds the part or the frame denies it where the object carries it (below). With fewer, its evidence
+    is the object's own surface: the part's few points matched the object's other points (a pen's tip, hidden as it
+    enters a holder, slides up the pen's visible body): it slid. Where the frame does not deny the object's
+    placement, points seen elsewhere are another surface's (the pen's tip, entering the holder with the pen well
+    registered, registered 3.5 cm off onto the holder's wall, and stayed there after the release). A slid part, or
+    one the frame lost, is put where the object carries it when the frame does not deny it there (at most
+    ``max_contradiction`` of its points in view read behind it; points hidden by a nearer surface deny nothing: a
+    stick's end seen moving along the stick while the uniform stick registers unmoved is denied there); its evidence
+    is then the object's registration (``on_parent``) and it has none of its own (``last`` is None: with its object
+    lost the next frame it is not kept where it was on its few points but searched like a lost body). Denied, the
     part's own result stands (its registration, or lost: stale)."""
     if part.model is None or parent.model is None or parent.lost or part.rel is None:
         return
     T_rigid = parent.T @ part.rel
-    if not part.lost:
-        if centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
-            return
-        if own_evidence(c, part, parent, views) >= c.min_seen:
-            part.rel = invert(parent.T) @ part.T  # it moved on its own
-            return
+    if not part.lost and centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
+        return
     sup = support(apply(T_rigid, part.model.points), views, c.depth_tol, c.max_depth)
-    if sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1):
+    denied = sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1)
+    if not part.lost and (part.held or denied) and own_evidence(c, part, parent, views) >= c.min_seen:
+        part.rel = invert(parent.T) @ part.T  # it moved on its own
+        return
+    if denied:
         return  # the frame denies it where the object carries it: the part's own result stands
     if not part.lost:
         part.T = part.T_prev  # the slid registration is not a pose the part had

@@ -6,6 +6,7 @@ from the body's model frame (the world at paint time) to the world now.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +41,7 @@ class BodyState:
     rel: np.ndarray | None = None  # a part: its pose relative to its object's model frame (depth_claims)
     on_parent: bool = False  # a part placed where its object carries it this frame (its evidence is the object's)
     small: bool = False  # too small to register on its own (depth_detect.is_small on the model): placed by its object
+    free_s: float = math.inf  # seconds since the end-effector last carried it (inf: never)
     elements: list[int] = field(default_factory=list)
 
 
@@ -63,13 +65,16 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
     if views and not body.lost and dT_ee is None and body.last is not None:
         # At rest, or (a part) carried along rigidly by its object: no registration needed.
         found = _unmoved(c, body, views, related[-1] if body.parent is not None and related else None)
-    guesses = _guesses(c, body, dT_ee, related, dt)
+    body.free_s = 0.0 if dT_ee is not None else body.free_s + dt
+    settling = dT_ee is None and body.free_s <= SETTLE_S  # just let go: it may fall and land within a frame
+    guesses = _guesses(c, body, dT_ee, related, dt, settling)
     if views and found is None and not (alone and body.small):
         boxes = [apply(T, body.model.box) for tier in guesses for T in tier]
         scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
-            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane)
+            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane, settling,
+                            climb=settling and not body.lost)
     if found is None:
         body.lost = True
         body.lost_frames += 1
@@ -82,13 +87,22 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
     body.T_prev, body.T, body.T_search = body.T, T, T
     body.lost, body.lost_before, body.lost_frames, body.seen_views = False, body.lost_frames, 0, sup.views
 
+SETTLE_S = 1.0
+"""Seconds after the end-effector last carried a body during which it is *settling*: it may drop and land within a
+frame, so its landing guesses are tried and compete with where it was (:func:`_guesses`, :func:`_search`)."""
+LANDING_STEP = 0.01
+"""Metres between the landing guesses of a free body: lowered by this, twice this, ... up to a free-fall step."""
+
+
 def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, related: list[np.ndarray],
-             dt: float) -> list[list[np.ndarray]]:
+             dt: float, settling: bool = False) -> list[list[np.ndarray]]:
     """Candidate poses in two tiers, most likely first. First: carried by the end-effector; moved like the
     parts of the same object already registered this frame (a drawer with its handle) and like the whole
-    object; where it was; at constant velocity. Then, tried only when none of those fits (a fall is the
-    less likely explanation; a fall guess that lands on an identical block must not win over a carried
-    block's own pose): falling at constant acceleration; dropped from the gripper."""
+    object; where it was; at constant velocity. Then, tried only when none of those fits as well as the last
+    frame for a ``settling`` body (let go within :data:`SETTLE_S`), else only when none fits at all (a fall is
+    the less likely explanation; a fall guess that lands on an identical block must not win over a carried or
+    resting block's own pose): falling at constant acceleration; dropped from the gripper; a settling body
+    lowered in :data:`LANDING_STEP` steps up to a free-fall step (it fell and landed within the frame)."""
     T0 = body.T_search if body.lost else body.T
     out: list[np.ndarray] = []
     falls: list[np.ndarray] = []
@@ -111,6 +125,11 @@ def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, r
         drop = dT_ee @ T0
         drop[2, 3] -= 0.5 * c.gravity * dt * dt
         falls.append(drop)
+    elif settling and not body.lost:  # let go: it may have fallen and landed within the frame (a pen in its holder)
+        for s in np.arange(LANDING_STEP, 0.5 * c.gravity * dt * dt, LANDING_STEP):
+            landed = T0.copy()
+            landed[2, 3] -= s
+            falls.append(landed)
     r = body.model.radius if body.model is not None else 0.05
     first = _distinct(out, r)
     return [first, [T for T in _distinct(first + falls, r) if not any(T is S for S in first)]]
@@ -131,15 +150,22 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
     return None
 
 def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
-            tiers: list[list[np.ndarray]], plane: Plane | None = None) -> tuple[np.ndarray, Support] | None:
+            tiers: list[list[np.ndarray]], plane: Plane | None = None,
+            free: bool = False, climb: bool = False) -> tuple[np.ndarray, Support] | None:
     """Register from each guess of a tier in order (most likely first), first with the finest
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
-    surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
-    coarser start (``fall_correspondence``) and with a higher bar (``fall_seen_frac``). The search
-    stops at a passing result with as much evidence as the last frame had; otherwise the passing result
-    with the most evidence wins (a static cabinet frame does not follow its drawer: the drawer's motion
-    passes for it but fits worse than staying put). A pose that sinks the body more than ``plane_band``
-    into the support ``plane`` is refused: points behind a surface are only occluded to the cameras."""
+    surface), then, when none passes, coarse to fine; the next tier (falls) when nothing passed, or, for a
+    ``free`` body (settling: let go within :data:`SETTLE_S`), when nothing passed as well as the last frame (a
+    pen let go into its holder drops a centimetre; from where it was, ICP turned it 9 degrees onto a pose that
+    passed, 14 % contradicted, and lost it the next frame), from a coarser start (``fall_correspondence``) and
+    with a higher bar (``fall_seen_frac``). With ``climb``, when no registration passes, the projective
+    evidence is climbed from the likeliest guesses (:func:`_climb_from`; only for a settling body: for any
+    body, a flat one gone from the table climbs into the table, whose surface then explains its points). The
+    search stops at a passing result with as
+    much evidence as the last frame had; otherwise the passing result with the most evidence wins (a static
+    cabinet frame does not follow its drawer: the drawer's motion passes for it but fits worse than staying put).
+    A pose that sinks the body more than ``plane_band`` into the support ``plane`` is refused: points behind a
+    surface are only occluded to the cameras."""
     import small_gicp
 
     model = body.model
@@ -164,6 +190,8 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     fall_need = max(need, int(c.fall_seen_frac * (body.last.seen if body.last is not None else body.ref_seen)))
     start = np.cumsum([0] + [len(t) for t in tiers])
     for tier, rounds in passes:
+        if best is not None and (tier == 0 or not free):
+            continue  # found: no coarse pass; the falls compete only for a free body (see _guesses)
         last = start[tier + 1] if rounds is fine or tier else min(start[tier + 1], start[tier] + 2)
         for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
             T0 = guesses[i]
@@ -188,9 +216,65 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 best = (T, sup)
             if _as_good_as_last(c, body, sup):
                 return best
-        if best is not None:
-            return best
+    if best is None and climb:
+        best = _climb_from(c, body, views, [T for T, g in zip(guesses[:start[1]], at_guess) if g is not None],
+                           need, plane)
     return best
+
+
+CLIMB_STEPS = 40
+"""Most moves one climb of the projective evidence makes (:func:`_climb_from`)."""
+
+
+def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], starts: list[np.ndarray], need: int,
+                plane: Plane | None) -> tuple[np.ndarray, Support] | None:
+    """The pose that the views explain best (:func:`_score`) near the two best of ``starts`` (4, 4), by coordinate
+    ascent: shifts of ``voxel`` along the world axes and turns of 2 degrees about them through the model's centre,
+    halved when none improves, down to a quarter, the centre kept within the coarsest correspondence distance of its
+    start (a correction, not a search of the scene); accepted under the search's checks (``need`` seen points, at most
+    ``max_contradiction``, not sunk into ``plane``). When every registration fails, the scene's points are what
+    misled it: a thin pen leaning in its holder, its model one side of it, was turned 10-25 degrees onto the
+    holder's wall by ICP while its true pose explained the frame with 87 points seen and 8 contradicted."""
+    from code_as_monitor.geometry.transforms import rotation_about
+
+    model = body.model
+    assert model is not None
+
+    def evidence(T: np.ndarray) -> Support:
+        return support(apply(T, model.points), views, c.depth_tol, c.max_depth)
+
+    ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: -_score(x[1]))[:2]
+    best: tuple[np.ndarray, Support] | None = None
+    for T, sup in ranked:
+        T_start, step, turn = T, c.voxel, np.radians(2.0)
+        for _ in range(CLIMB_STEPS):
+            ctr = apply(T, model.centre[None])[0]
+            moves = []
+            for axis in np.eye(3):
+                for sign in (-1.0, 1.0):
+                    M = np.eye(4)
+                    M[:3, 3] = sign * step * axis
+                    moves.append(M)
+                    R = rotation_about(axis, sign * turn)
+                    M = np.eye(4)
+                    M[:3, :3], M[:3, 3] = R, ctr - R @ ctr
+                    moves.append(M)
+            near = [M @ T for M in moves if centre_shift(model, T_start, M @ T) <= c.max_correspondence[0]]
+            cand = max(((S, evidence(S)) for S in near), key=lambda x: _score(x[1])) if near else (T, sup)
+            if _score(cand[1]) > _score(sup):
+                T, sup = cand
+            elif step > c.voxel / 4:
+                step, turn = step / 2, turn / 2
+            else:
+                break
+        if sup.seen < need or sup.contradiction > c.max_contradiction:
+            continue
+        if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
+            continue
+        if best is None or _score(sup) > _score(best[1]):
+            best = (T, sup)
+    return best
+
 
 def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: list[ViewData],
              plane: Plane | None) -> bool:
