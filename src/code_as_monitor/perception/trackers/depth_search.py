@@ -66,14 +66,14 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         # At rest, or (a part) carried along rigidly by its object: no registration needed.
         found = _unmoved(c, body, views, related[-1] if body.parent is not None and related else None)
     body.free_s = 0.0 if dT_ee is not None else body.free_s + dt
-    settling = dT_ee is None and body.free_s <= SETTLE_S  # just let go: it may fall and land within a frame
-    guesses = _guesses(c, body, dT_ee, related, dt, settling)
+    settling = dT_ee is None and body.free_s <= SETTLE_S  # just let go: it may drop and lean where it lands
+    guesses = _guesses(c, body, dT_ee, related, dt)
     if views and found is None and not (alone and body.small):
         boxes = [apply(T, body.model.box) for tier in guesses for T in tier]
         scene = crop_scene(views, boxes, c.margin_px, c.box_margin, c.max_depth,
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
-            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane, settling,
+            found = _search(c, body, views, scene, guesses, None if body.model.in_plane else plane,
                             climb=settling and not body.lost)
     if found is None:
         body.lost = True
@@ -88,21 +88,17 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
     body.lost, body.lost_before, body.lost_frames, body.seen_views = False, body.lost_frames, 0, sup.views
 
 SETTLE_S = 1.0
-"""Seconds after the end-effector last carried a body during which it is *settling*: it may drop and land within a
-frame, so its landing guesses are tried and compete with where it was (:func:`_guesses`, :func:`_search`)."""
-LANDING_STEP = 0.01
-"""Metres between the landing guesses of a free body: lowered by this, twice this, ... up to a free-fall step."""
+"""Seconds after the end-effector last carried a body during which it is *settling*: it may drop and lean where it
+lands, and when no registration passes, its projective evidence is climbed (:func:`_search`, :func:`_climb_from`)."""
 
 
 def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, related: list[np.ndarray],
-             dt: float, settling: bool = False) -> list[list[np.ndarray]]:
+             dt: float) -> list[list[np.ndarray]]:
     """Candidate poses in two tiers, most likely first. First: carried by the end-effector; moved like the
     parts of the same object already registered this frame (a drawer with its handle) and like the whole
-    object; where it was; at constant velocity. Then, tried only when none of those fits as well as the last
-    frame for a ``settling`` body (let go within :data:`SETTLE_S`), else only when none fits at all (a fall is
-    the less likely explanation; a fall guess that lands on an identical block must not win over a carried or
-    resting block's own pose): falling at constant acceleration; dropped from the gripper; a settling body
-    lowered in :data:`LANDING_STEP` steps up to a free-fall step (it fell and landed within the frame)."""
+    object; where it was; at constant velocity. Then, tried only when none of those fits (a fall is the
+    less likely explanation; a fall guess that lands on an identical block must not win over a carried
+    block's own pose): falling at constant acceleration; dropped from the gripper."""
     T0 = body.T_search if body.lost else body.T
     out: list[np.ndarray] = []
     falls: list[np.ndarray] = []
@@ -125,11 +121,6 @@ def _guesses(c: DepthTrackerConfig, body: BodyState, dT_ee: np.ndarray | None, r
         drop = dT_ee @ T0
         drop[2, 3] -= 0.5 * c.gravity * dt * dt
         falls.append(drop)
-    elif settling and not body.lost:  # let go: it may have fallen and landed within the frame (a pen in its holder)
-        for s in np.arange(LANDING_STEP, 0.5 * c.gravity * dt * dt, LANDING_STEP):
-            landed = T0.copy()
-            landed[2, 3] -= s
-            falls.append(landed)
     r = body.model.radius if body.model is not None else 0.05
     first = _distinct(out, r)
     return [first, [T for T in _distinct(first + falls, r) if not any(T is S for S in first)]]
@@ -151,17 +142,14 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
 
 def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
             tiers: list[list[np.ndarray]], plane: Plane | None = None,
-            free: bool = False, climb: bool = False) -> tuple[np.ndarray, Support] | None:
+            climb: bool = False) -> tuple[np.ndarray, Support] | None:
     """Register from each guess of a tier in order (most likely first), first with the finest
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
-    surface), then, when none passes, coarse to fine; the next tier (falls) when nothing passed, or, for a
-    ``free`` body (settling: let go within :data:`SETTLE_S`), when nothing passed as well as the last frame (a
-    pen let go into its holder drops a centimetre; from where it was, ICP turned it 9 degrees onto a pose that
-    passed, 14 % contradicted, and lost it the next frame), from a coarser start (``fall_correspondence``) and
-    with a higher bar (``fall_seen_frac``). With ``climb``, when no registration passes, the projective
-    evidence is climbed from the likeliest guesses (:func:`_climb_from`; only for a settling body: for any
-    body, a flat one gone from the table climbs into the table, whose surface then explains its points). The
-    search stops at a passing result with as
+    surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
+    coarser start (``fall_correspondence``) and with a higher bar (``fall_seen_frac``). With ``climb``, when no
+    registration passes, the projective evidence is climbed from the likeliest guesses (:func:`_climb_from`;
+    asked for a settling body only: for any body, a flat one gone from the table climbs into the table, whose
+    surface then explains its points). The search stops at a passing result with as
     much evidence as the last frame had; otherwise the passing result with the most evidence wins (a static
     cabinet frame does not follow its drawer: the drawer's motion passes for it but fits worse than staying put).
     A pose that sinks the body more than ``plane_band`` into the support ``plane`` is refused: points behind a
@@ -190,8 +178,8 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     fall_need = max(need, int(c.fall_seen_frac * (body.last.seen if body.last is not None else body.ref_seen)))
     start = np.cumsum([0] + [len(t) for t in tiers])
     for tier, rounds in passes:
-        if best is not None and (tier == 0 or not free):
-            continue  # found: no coarse pass; the falls compete only for a free body (see _guesses)
+        if best is not None:
+            break
         last = start[tier + 1] if rounds is fine or tier else min(start[tier + 1], start[tier] + 2)
         for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
             T0 = guesses[i]
