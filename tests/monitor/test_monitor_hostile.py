@@ -54,7 +54,7 @@ def frame(scene):
 def test_corpora_are_large_and_mixed():
     assert len(ALL) >= 100 and len({c[0] for c in ALL}) == len(ALL)
     assert not {c[0] for c in ALL} & {c[0] for c in CORPUS}
-    assert {c[2] for c in ALL} == {"rejected", "fault", "frame", "either", "load", "clean"}
+    assert {c[2] for c in ALL} == {"rejected", "fault", "frame", "either", "bounded", "load", "clean"}
     assert sum(c[2] != "rejected" for c in ALL) >= 60  # most of the new ones reach the worker
     names = {c[0] for c in ALL + KINDS + CORPUS}
     assert len(names) == len(ALL) + len(KINDS) + len(CORPUS)
