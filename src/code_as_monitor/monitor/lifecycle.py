@@ -127,21 +127,27 @@ class WorkerLifecycle:
         if self.confine and flags & _CONFINED != _CONFINED:
             log.warning("sandbox worker runs WITHOUT kernel confinement (opted out): %s", notes)
 
-    def _absorb_ready(self, w: WorkerProcess, deadline: float) -> None:
-        """Wait for ``w``'s ready record until ``deadline`` (wall), then on while the worker has used less than
-        ``start_timeout_s`` of CPU time since its spawn, until ``start_wall_s`` after the spawn (raises
-        :class:`LateError` past either; where CPU time cannot be read, at ``deadline``). Under load a worker
-        that boots in half a second of CPU can wait tens of seconds for a core."""
-        ceiling = w.started + self.start_wall_s
+    def _absorb_cpu(self, w: WorkerProcess, deadline: float, cpu_budget_s: float, cpu0: float,
+                    ceiling: float) -> None:
+        """Read ``w``'s owed replies until ``deadline`` (wall), then on while the worker has used less than
+        ``cpu_budget_s`` of CPU time since ``cpu0`` (its CPU seconds then), until ``ceiling`` (wall); raises
+        :class:`LateError` past either (where CPU time cannot be read, at ``deadline``). A busy machine, not the
+        worker, makes a reply late when the worker has not had the CPU."""
         while True:
             try:
                 self._absorb(w, deadline)
                 return
             except LateError:
-                used, now = w.cpu_seconds(), time.perf_counter()
-                if not used < self.start_timeout_s or now >= ceiling:  # NaN: not known
+                used, now = w.cpu_seconds() - cpu0, time.perf_counter()
+                if not used < cpu_budget_s or now >= ceiling:  # NaN: not known
                     raise
-                deadline = min(ceiling, now + self.start_timeout_s - used)
+                deadline = min(ceiling, now + cpu_budget_s - used)
+
+    def _absorb_ready(self, w: WorkerProcess, deadline: float) -> None:
+        """Wait for ``w``'s ready record: ``start_timeout_s`` of its CPU time since its spawn, within
+        ``start_wall_s`` of wall time after the spawn (:meth:`_absorb_cpu`). Under load a worker that boots in
+        half a second of CPU can wait tens of seconds for a core."""
+        self._absorb_cpu(w, deadline, self.start_timeout_s, 0.0, w.started + self.start_wall_s)
 
     def _ready_worker(self, deadline: float, refill: bool = True) -> WorkerProcess:
         """A spare that has said ready (started if need be), replacing ones that die on the way up."""

@@ -160,18 +160,9 @@ class Sandbox(WorkerLifecycle):
         """Wait for the load reply: ``load_timeout_s`` of the worker's CPU time, within ``load_wall_s`` of
         wall time (raises :class:`LateError` past either; where CPU time cannot be read, the wall budget is
         ``load_timeout_s``)."""
-        start, cpu0 = time.perf_counter(), w.cpu_seconds()
-        deadline = start + self.load_timeout_s
-        while True:
-            try:
-                self._absorb(w, deadline)
-                return
-            except LateError:
-                used = w.cpu_seconds() - cpu0
-                now = time.perf_counter()
-                if not used < self.load_timeout_s or now - start >= self.load_wall_s:  # NaN: not known
-                    raise
-                deadline = min(start + self.load_wall_s, now + self.load_timeout_s - used)
+        start = time.perf_counter()
+        self._absorb_cpu(w, start + self.load_timeout_s, self.load_timeout_s, w.cpu_seconds(),
+                         start + self.load_wall_s)
 
     # --- evaluation -------------------------------------------------------------------------------
     def _faults(self, reason: str, t: float) -> list[Verdict]:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from code_as_monitor.geometry.transforms import rotation_onto
+from code_as_monitor.geometry.transforms import rotation_about, rotation_onto
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
 from code_as_monitor.perception.trackers.depth_body import RigidBody, Support, apply, invert, register, support
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, crop_scene
@@ -198,7 +198,7 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 T, sup = T0, g
             if sup.seen < (need if tier == 0 else fall_need) or sup.contradiction > c.max_contradiction:
                 continue
-            if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
+            if _sinks(c, model, T, plane):
                 continue  # sunk into the support plane: the cameras cannot see that, but it is solid
             if best is None or _score(sup) > _score(best[1]):
                 best = (T, sup)
@@ -224,8 +224,6 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     pen let go into its holder, its model one side of it and three-quarters of its crop the holder, was turned 9-26
     degrees by ICP from every guess while its true pose explained the frame with 87 points seen and 8
     contradicted."""
-    from code_as_monitor.geometry.transforms import rotation_about
-
     model = body.model
     assert model is not None
 
@@ -258,7 +256,7 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
                 break
         if sup.seen < need or sup.contradiction > c.max_contradiction:
             continue
-        if plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band:
+        if _sinks(c, model, T, plane):
             continue
         if best is None or _score(sup) > _score(best[1]):
             best = (T, sup)
@@ -313,6 +311,11 @@ def _along_axis(c: DepthTrackerConfig, body: BodyState, T0: np.ndarray, cloud: n
             T[:3, 3] += d * axis
             scored.append((_score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
     return [T for _, T in sorted(scored, key=lambda x: -x[0])[:2]]
+
+
+def _sinks(c: DepthTrackerConfig, model: RigidBody, T: np.ndarray, plane: Plane | None) -> bool:
+    """Whether pose ``T`` (4, 4) puts ``model`` more than ``plane_band`` below the support ``plane``."""
+    return plane is not None and float((apply(T, model.points) @ plane[0]).min()) + plane[1] < -c.plane_band
 
 
 def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
