@@ -150,3 +150,72 @@ def test_from_config_builds_the_stages_from_their_names():
         assert type(m.checker).__name__ == "CodeChecker" and m.max_replans == 3
     with Monitor.from_config(MonitorConfig(backend="kb", segmenter="sim", tracker="sim")) as m:
         assert "pick" in m.planner.skills and len(m.planner.skills) > 2  # every simulator skill
+
+
+class _RejectingCoder(Coder):
+    """Never produces a program (as when every candidate fails validation)."""
+
+    def write_program(self, subgoal, elements, images, check, max_retries=2, feedback=None):
+        from code_as_monitor.core.errors import ProgramError
+
+        self.checked += 1
+        raise ProgramError("check_x returned True on all 12 inputs")
+
+
+class _SamePlanner:
+    """A deterministic planner: the same subgoal whatever the feedback (the kb after a coder failure)."""
+
+    def __init__(self, texts: list[str]) -> None:
+        self.texts = texts
+        self.calls = 0
+
+    def next_subgoal(self, instruction, images, objects, previous, feedback):
+        self.calls += 1
+        return _subgoal(self.texts[(self.calls - 1) % len(self.texts)])
+
+
+@pytest.mark.parametrize("max_same_start", [1, 3])
+def test_the_same_subgoal_that_cannot_start_on_one_observation_stops_the_episode_as_stuck(max_same_start: int) -> None:
+    """Nothing moves while the planner re-plans on one observation: a subgoal whose program the coder cannot
+    write is proposed ``max_same_start`` times, then the episode stops with that reason, long before the
+    re-plan bound (30), and without starting the policy."""
+    w = World()
+    events: list = []
+    coder = _RejectingCoder()
+    checker = CodeChecker(coder, Painter(), Tracker(w), Runtime(RULES), History, AgentConfig())
+    planner = _SamePlanner(["grasp the pen"])
+    m = Monitor(planner, checker, max_replans=30, max_same_start=max_same_start,
+                on_event=lambda k, **f: events.append((k, f)))
+    m.start("put the pen in the holder")
+    d = m.step(w.observe())
+    assert d.finished and d.kind is DecisionKind.STOPPED and d.action is None
+    assert planner.calls == coder.checked == max_same_start
+    assert m.episode.replans == max_same_start
+    assert m.episode.stop_reason.startswith("stuck: the planner proposed 'grasp the pen'")
+    assert "check_x returned True on all 12 inputs" in m.episode.stop_reason
+    assert [f["times"] for k, f in events if k == "stuck"] == [max_same_start]
+
+
+def test_different_subgoals_that_cannot_start_run_to_the_replan_bound() -> None:
+    """Only an identical proposal counts: a planner that changes its subgoal after each failure is given the
+    whole re-plan bound (the guard is not a second, smaller bound)."""
+    w = World()
+    coder = _RejectingCoder()
+    checker = CodeChecker(coder, Painter(), Tracker(w), Runtime(RULES), History, AgentConfig())
+    planner = _SamePlanner([f"grasp the pen, try {i}" for i in range(40)])
+    m = Monitor(planner, checker, max_replans=5, max_same_start=2)
+    m.start("put the pen in the holder")
+    d = m.step(w.observe())
+    assert d.finished and m.episode.replans == 6 and planner.calls == 6
+    assert m.episode.stop_reason == "too many re-plans (6)"
+
+
+def test_a_subgoal_that_failed_while_running_is_not_counted_as_stuck() -> None:
+    """The guard is per observation: the same subgoal re-proposed after it ran (the world moved) starts."""
+    w = World(t_drop=0.1)
+    planner = Planner([_subgoal("move block") for _ in range(4)])
+    m = _monitor(w, planner, max_replans=10)
+    m.max_same_start = 1
+    decisions = user_loop(m, w, MovePolicy(w))
+    starts = [d for d in decisions if d.action is not None]
+    assert len(starts) == 4 and "stuck" not in (m.episode.stop_reason or "")

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from code_as_monitor.agent.check_modes import check_mode
-from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS
+from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SAME_START, DEFAULT_MAX_SUBGOALS
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.painter.sources import check_element_source
@@ -26,6 +26,8 @@ class AgentConfig:
         frame_hz: monitoring rate (frames per second of observation time).
         max_replans: failed subgoals allowed before giving up.
         max_subgoals: hard bound on subgoals per episode.
+        max_same_start: proposals of one identical subgoal that could not start, on one observation, before
+            the episode stops as stuck (the world has not moved in between; see ``DEFAULT_MAX_SAME_START``).
         time_limit_s: no subgoal is planned at or after this time (observation seconds); None for none.
         history_len: frames of element history fed to the program as H.
         code_retries: regenerations allowed when validation or path coverage fails.
@@ -52,6 +54,7 @@ class AgentConfig:
     frame_hz: float = 10.0
     max_replans: int = DEFAULT_MAX_REPLANS
     max_subgoals: int = DEFAULT_MAX_SUBGOALS
+    max_same_start: int = DEFAULT_MAX_SAME_START
     time_limit_s: float | None = None
     history_len: int = 64
     code_retries: int = 2
@@ -69,6 +72,7 @@ class AgentConfig:
         check_range(name, "frame_hz", self.frame_hz, *RATE_HZ_RANGE)
         check_count(name, "max_replans", self.max_replans, 0)
         check_count(name, "max_subgoals", self.max_subgoals, 1)
+        check_count(name, "max_same_start", self.max_same_start, 1)
         check_count(name, "history_len", self.history_len, 2)
         if self.time_limit_s is not None:
             check_range(name, "time_limit_s", self.time_limit_s, 0.0, None, lo_open=True)

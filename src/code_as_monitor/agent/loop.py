@@ -62,8 +62,8 @@ class Agent:
     def monitor(self) -> Monitor:
         """A fresh streaming monitor over this agent's stages."""
         return Monitor(self.planner, self.checker, max_replans=self.cfg.max_replans,
-                       max_subgoals=self.cfg.max_subgoals, time_limit_s=self.cfg.time_limit_s,
-                       on_event=self.on_event)
+                       max_subgoals=self.cfg.max_subgoals, max_same_start=self.cfg.max_same_start,
+                       time_limit_s=self.cfg.time_limit_s, on_event=self.on_event)
 
     def run(self, instruction: str, env: Environment, policy: Policy) -> EpisodeLog:
         """Run the task until the planner says it is complete, replans run out, or time is up."""

@@ -5,8 +5,9 @@ subgoal from the observation, the previous subgoal and the feedback (paper eq. 1
 :class:`SubgoalChecker` watches it frame by frame (Code-as-Monitor's painted elements, generated
 program, tracker and sandbox; or a baseline's yes/no questions); the subgoal's outcome becomes the
 next feedback (``"success"`` or ``"failure: <reason>"``). The monitor stops when the planner says the
-task is complete, after ``max_replans`` failed subgoals, after ``max_subgoals`` subgoals, or at the
-time limit.
+task is complete, after ``max_replans`` failed subgoals, after ``max_subgoals`` subgoals, at the
+time limit, or when it is stuck: the planner proposed the same subgoal ``max_same_start`` times on one
+observation and it could not start each time (nothing moved in between, so nothing would change).
 
 The caller owns the policy and the clock. Each frame it hands over an
 :class:`~code_as_monitor.core.observation.Observation` and whether the policy has finished its
@@ -30,6 +31,7 @@ action to start, and whether the episode is over. Nothing here imports the simul
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import numbers
@@ -40,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 from code_as_monitor.agent.decision import Decision, DecisionKind
 from code_as_monitor.agent.records import (
     DEFAULT_MAX_REPLANS,
+    DEFAULT_MAX_SAME_START,
     DEFAULT_MAX_SUBGOALS,
     SUCCESS_FEEDBACK,
     Alarm,
@@ -71,6 +74,8 @@ class Monitor:
         checker: the method's :class:`SubgoalChecker`.
         max_replans: failed subgoals allowed before giving up.
         max_subgoals: subgoals allowed per episode.
+        max_same_start: proposals of one identical subgoal that could not start, on one observation, after
+            which the episode stops as stuck.
         time_limit_s: no new subgoal is planned at or after this time (observation seconds); None: none.
         cameras: view names to use; None: every view of the observation.
         on_event: ``fn(kind, **fields)`` for the event log.
@@ -79,17 +84,21 @@ class Monitor:
     """
 
     def __init__(self, planner: Any, checker: SubgoalChecker, *, max_replans: int = DEFAULT_MAX_REPLANS,
-                 max_subgoals: int = DEFAULT_MAX_SUBGOALS, time_limit_s: float | None = None,
+                 max_subgoals: int = DEFAULT_MAX_SUBGOALS, max_same_start: int = DEFAULT_MAX_SAME_START,
+                 time_limit_s: float | None = None,
                  cameras: list[str] | None = None, on_event: EventFn | None = None, usage: Any = None,
                  owned: list[Any] | None = None) -> None:
         if max_replans < 0:
             raise ConfigError(f"Monitor: max_replans must be >= 0, got {max_replans!r}")
         if max_subgoals < 1:
             raise ConfigError(f"Monitor: max_subgoals must be >= 1, got {max_subgoals!r}")
+        if max_same_start < 1:
+            raise ConfigError(f"Monitor: max_same_start must be >= 1, got {max_same_start!r}")
         self.planner = planner
         self.checker = checker
         self.max_replans = max_replans
         self.max_subgoals = max_subgoals
+        self.max_same_start = max_same_start
         self.time_limit_s = time_limit_s
         self.cameras = list(cameras) if cameras else None
         self.emit: EventFn = on_event or _noop_event
@@ -117,8 +126,8 @@ class Monitor:
 
         stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend, skills=skills)
         return cls(stages.planner, stages.checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
-                   time_limit_s=config.time_limit_s, cameras=config.cameras, on_event=on_event,
-                   usage=stages.planner.usage, owned=[stages.runtime])
+                   max_same_start=config.max_same_start, time_limit_s=config.time_limit_s, cameras=config.cameras,
+                   on_event=on_event, usage=stages.planner.usage, owned=[stages.runtime])
 
     # ------------------------------------------------------------------------------------------------
     @property
@@ -220,6 +229,7 @@ class Monitor:
     def _plan(self, obs: Observation, kind: DecisionKind, halt: bool, ended: SubgoalRecord | None) -> Decision:
         """Plan subgoals on ``obs`` until one starts (or the episode ends)."""
         ep = self.episode
+        not_started: dict[str, int] = {}  # subgoal (as JSON) -> times it could not start on this observation
         while True:
             if self._index >= self.max_subgoals:
                 ep.stop_reason = f"subgoal bound ({self.max_subgoals}) reached"
@@ -248,6 +258,16 @@ class Monitor:
             if early is not None:
                 ended = self._end_subgoal(early, obs.t)
                 kind = DecisionKind.SUBGOAL_FAILED
+                if self._state != "over":
+                    key = json.dumps(subgoal.to_dict(), sort_keys=True, default=str)
+                    not_started[key] = not_started.get(key, 0) + 1
+                    if not_started[key] >= self.max_same_start:
+                        ep.stop_reason = (f"stuck: the planner proposed {subgoal.text!r} {not_started[key]} times "
+                                          f"on the observation at t={obs.t:.3f} s and it could not start "
+                                          f"({early.reason})")
+                        self.emit("stuck", t=obs.t, subgoal=subgoal.text, times=not_started[key],
+                                  reason=early.reason)
+                        self._state = "over"
                 if self._state == "over":
                     return self._over(obs.t, halt=halt, ended=ended)
                 continue

@@ -16,6 +16,11 @@ DEFAULT_MAX_REPLANS = 30
 """Failed subgoals allowed per episode: one bound for every method (CaM and the baselines)."""
 DEFAULT_MAX_SUBGOALS = 80
 """Subgoals allowed per episode; the task's time limit is normally what ends an episode."""
+DEFAULT_MAX_SAME_START = 3
+"""Times one observation may see the planner propose the same subgoal that could not start (no valid
+monitor program, an element it cannot see, a constraint already violated) before the episode stops as
+stuck: nothing has moved in between, so a deterministic planner and coder would repeat it to the re-plan
+bound; a sampling VLM gets two more tries."""
 
 
 @dataclass
@@ -95,4 +100,5 @@ class EpisodeLog:
         }
 
 
-__all__ = ["DEFAULT_MAX_REPLANS", "DEFAULT_MAX_SUBGOALS", "SUCCESS_FEEDBACK", "Alarm", "EpisodeLog", "SubgoalRecord"]
+__all__ = ["DEFAULT_MAX_REPLANS", "DEFAULT_MAX_SAME_START", "DEFAULT_MAX_SUBGOALS",
+           "SUCCESS_FEEDBACK", "Alarm", "EpisodeLog", "SubgoalRecord"]
