@@ -6,7 +6,8 @@ the same job through the same episode code as ``cam bench``
 (the commands are written by :mod:`code_as_monitor.bench.commands`). CaM records also carry ``run``, the ``cam run``
 command with the same task, episode seed, task parameters, perception, camera size and rate, backend and
 re-plan bound: the same episode, with the live log and a run directory (the benchmark's counterfactual
-rollouts restore the world exactly, so running without them changes nothing).
+rollouts run in a forked copy of the episode, so running without them changes nothing; records written
+before they did, by rollouts restored in place, match their ``run`` command only up to the first rollout).
 
 A re-run matches its record when the outcome (success and reason) is the same, the alarms name the same
 constraints at the same frames (within one frame period), and the ground-truth failures are the same events.
