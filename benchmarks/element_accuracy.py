@@ -12,8 +12,9 @@ its end ("after_<skill>": placed, stacked, inserted, poured); for stack-in-order
 centred (each block's centre exactly above the one below, same yaw), whose pairs give "centred pair" offsets.
 Each scene is rendered from four cameras, 320x240: the default front and top views, and two shoulder views the
 tests never use (eyes at (0.3, +-0.5, 0.75) m looking at the table centre (0.3, 0, 0), 60 degree field of view).
-View sets: ``default`` (front + top), ``shoulders`` (both shoulder views), ``front`` (the front view alone); each
-with clean depth and with 2 mm Gaussian depth noise.
+View sets: ``default`` (the task's own cameras: front + top for the paper's tasks; front, two shoulders and wrist for
+the RLBench-style ones), ``shoulders`` (both added shoulder views), ``front`` (the front view alone); each with
+clean depth and with 2 mm Gaussian depth noise.
 
 Printed: per task, scene group, view set and noise the point error median / max (mm, 3-D distance to the true
 centre), line direction and surface normal error median / max (degrees), line axis and surface plane offsets
@@ -90,6 +91,11 @@ class Scene:
     truth: dict[int, PartTruth]
     specs: list[ElementSpec]
     pairs: list[tuple[int, int]] = field(default_factory=list)  # (lower, upper) spec indices of centred towers
+    default: tuple[str, ...] = VIEW_SETS["default"]  # the task's own cameras
+
+    def view_sets(self) -> dict[str, tuple[str, ...]]:
+        """View set name -> camera names for this scene (``default`` is the task's own cameras)."""
+        return {**VIEW_SETS, "default": self.default}
 
 
 def _render(world, cams: list[SimCamera]) -> dict[str, View]:
@@ -99,7 +105,8 @@ def _render(world, cams: list[SimCamera]) -> dict[str, View]:
 
 def _scene(task: str, seed: int, label: str, world, cams, specs, pairs=()) -> Scene:
     truth = {i: part_truth(world, s.obj, s.part) for i, s in enumerate(specs)}
-    return Scene(task, seed, label, _render(world, cams), truth, specs, list(pairs))
+    return Scene(task, seed, label, _render(world, cams), truth, specs, list(pairs),
+                 tuple(c.spec.name for c in world.cameras))
 
 
 def _centred_tower(env, cams, specs, seed: int) -> Scene:
@@ -175,7 +182,7 @@ def evaluate(scenes: list[Scene], painter: Painter) -> tuple[list[Record], dict[
     times: list[float] = []
     for si, sc in enumerate(scenes):
         sub = Subgoal("look", [Constraint("look", "see every element", Phase.UPON, list(sc.specs))])
-        for vs, names in VIEW_SETS.items():
+        for vs, names in sc.view_sets().items():
             for noise in NOISES_MM:
                 rng = np.random.default_rng([si, int(noise * 10), len(names), sc.seed])
                 obs = Observation(0.0, _noisy(sc.views, names, noise, rng))
@@ -232,7 +239,11 @@ def main(argv: list[str] | None = None) -> int:
     tasks = args.tasks or task_names()
     painter = Painter(make_segmenter(SegmenterConfig.from_name("sim")))
     t0 = time.perf_counter()
-    scenes = [sc for t in tasks for s in range(args.seeds) for sc in task_scenes(t, s, args.every)]
+    scenes = []
+    for t in tasks:
+        for s in range(args.seeds):
+            scenes += task_scenes(t, s, args.every)
+        print(f"[{time.perf_counter() - t0:6.0f} s] scenes of {t}: {len(scenes)} so far", file=sys.stderr, flush=True)
     t_scenes = time.perf_counter() - t0
     records, pairs, times = evaluate(scenes, painter)
     print(f"perception: sim segmenter masks + painter geometry (no tracker); planner: none (scripted plan); "
