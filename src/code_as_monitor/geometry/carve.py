@@ -140,9 +140,40 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
         elif ext[a] + out.grown[:, a].sum() > (1.0 + FACE_ALONE) * prior:
             _assume_depth(out, ext, a, out.grown[:, a].copy())
+    if compact:
+        for b in grow_axes:
+            if b != a and not out.hidden[:, b].any():
+                _no_new_length(out, box, b)
     out.lo -= out.grown[0]
     out.hi += out.grown[1]
     return out
+
+
+def _no_new_length(out: Box, box: Box, a: int) -> None:
+    """A whole object does not become long along an axis it was not seen long along, in place on ``out``.
+
+    The carving of a side is an upper bound wherever what stopped it was a view seeing past it: behind another
+    object's surface (more than :data:`SHELL` behind it) the space may as well be that object's. So a block whose
+    top another block covers grows up into that block until some view sees past the upper block's top (the lower
+    block of a tower seen from a shoulder: 30 mm, its centre 15 mm high), and the middle block of a tower grows
+    down through the lower one to the table (42 mm). When the carving makes axis ``a`` more than
+    ``1 + FACE_ALONE`` times the largest other extent, though the points did not show the object long along ``a``,
+    ``a`` gets the compact-solid length instead: as long as the largest other extent, between the observed extent
+    and the carved one, shared between the two sides in proportion to their growth. Those sides are ``assumed``
+    (their growth is the room, for the element's uncertainty). An object seen long along ``a`` (a pen, a stick:
+    longer than ``1 + FACE_ALONE`` times its other extents) grows along it as the views allow; one standing on the
+    table with its lower part hidden behind another object, not seen long, gets the compact length too, and says
+    so (``assumed``)."""
+    ext = box.extent
+    longest_other = max(ext[b] for b in range(3) if b != a)
+    carved = ext[a] + out.grown[:, a].sum()
+    if ext[a] > (1.0 + FACE_ALONE) * longest_other or carved <= (1.0 + FACE_ALONE) * longest_other:
+        return
+    room = out.grown[:, a].copy()
+    share = min(max(longest_other - ext[a], 0.0), float(room.sum())) * room / room.sum()
+    out.grown[:, a] = share
+    out.room[:, a] = room
+    out.assumed[:, a] = room > share + FINE_STEP
 
 
 def _spread(box: Box, a: int, points: np.ndarray | None) -> float:
