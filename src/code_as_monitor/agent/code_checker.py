@@ -23,10 +23,11 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.check_modes import kept_constraints
+from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
-from code_as_monitor.core.elements import Element, stood_in
+from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
 from code_as_monitor.core.observation import Observation
 
@@ -34,7 +35,7 @@ FrameFn = Callable[[Observation, list[Element], dict[int, np.ndarray], list[Verd
 PromptFn = Callable[[int, Subgoal, dict[str, np.ndarray], str], None]
 
 
-class CodeChecker:
+class CodeChecker(SubgoalCompletion):
     """Watches one subgoal at a time with a generated monitor program.
 
     Args:
@@ -249,10 +250,13 @@ class CodeChecker:
             self._frame(obs, tr, verdicts, f"VIOLATION {v.constraint_id}: {v.reason}")
             return end("violated", f"{v.constraint_id}: {v.reason}", halt=True)
         if upon_ok and (policy_done or (self.cfg.halt_on_upon and self._upon_streak >= self.cfg.upon_dwell_frames)):
-            if not policy_done:
-                ctx.emit("early_halt", t=obs.t, reason="all upon constraints satisfied")
-            self._frame(obs, tr, verdicts, "subgoal complete")
-            return end("success", "; ".join(v.reason for v in upon_v), halt=not policy_done)
+            confirmed = self._confirm(obs, tr, upon_v, ctx) if self.cfg.refresh_on_done else upon_v
+            if confirmed is not None:
+                if not policy_done:
+                    ctx.emit("early_halt", t=obs.t, reason="all upon constraints satisfied")
+                self._frame(obs, tr, verdicts, "subgoal complete")
+                return end("success", "; ".join(v.reason for v in confirmed), halt=not policy_done)
+            self._upon_streak = 0  # not on re-measured elements: go on (at the policy's end, the settle judges)
         self._frame(obs, tr, verdicts, "")
         if policy_done:
             # Judge the upon checks on re-measured elements, starting with this very frame.
@@ -301,82 +305,5 @@ class CodeChecker:
         current = [Element(e.id, e.name, e.kind, tr.points.get(e.id, e.points), e.owner, e.color)
                    for e in self._elements]
         self.on_frame(obs, current, tr.stale, verdicts, banner)
-
-    # --- the policy has finished: judge the upon checks ---------------------------------------------------
-    def _remeasured_at_rest(self, obs: Observation, e: Element, ctx: MonitorContext) -> Element | None:
-        """A fresh measurement of ``e``, an element the tracker saw at rest all subgoal, to judge the upon checks on
-        instead of its measurement from the subgoal start; None keeps that one.
-
-        The start measurement is kept unless its own support calls it weak (:meth:`ElementSupport.weak
-        <code_as_monitor.core.elements.ElementSupport.weak>`: e.g. painted mostly through the robot, whose arm is
-        often over the next target when a subgoal starts) and a measurement from this static frame is not weak.
-        A strong start measurement is kept even when the fresh one differs: re-painting now measures what is left
-        visible (the sides of a block another block now covers)."""
-        sup = e.support
-        if sup is None or not sup.weak():
-            return None
-        fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
-        if fresh is None or fresh.support is None or fresh.support.weak() or fresh.points.shape != e.points.shape:
-            return None
-        shift = float(np.linalg.norm(fresh.points.mean(axis=0) - e.points.mean(axis=0)))
-        ctx.emit("element_remeasured", t=obs.t, id=e.id, name=e.name, robot_hidden_start=round(sup.robot_hidden, 3),
-                 robot_hidden_now=round(fresh.support.robot_hidden, 3), shift=round(shift, 4))
-        return fresh
-
-    def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
-        """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
-        one period apart, until every upon check has a verdict that is neither a fault nor stale."""
-        upon_ids = {c.id for c in self._upon}
-        tr = self.tracker.step(obs)
-        points = dict(tr.points)
-        stale = {i: np.asarray(st) for i, st in tr.stale.items()}
-        self._fold_support(tr, {i for i, st in stale.items() if np.any(st)})
-        tracked, measured = dict(self._tracked), {}
-        if self.cfg.refresh_on_done:
-            H0, _ = self._history.arrays()
-            for e in self._elements:
-                if e.owner[0] == "robot" or e.id not in H0:
-                    continue
-                moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
-                if moved <= self.cfg.refresh_motion:
-                    # at rest all along: its measurement from the subgoal start, unless that one was weak (kept, it
-                    # is as good as the tracker that says it rested: its tracked support stays; re-measured, it is new)
-                    kept = self._remeasured_at_rest(obs, e, ctx) or e
-                    points[e.id] = kept.points
-                    stale[e.id] = np.zeros(len(kept.points), dtype=bool)
-                    if kept is not e:
-                        tracked[e.id], measured[e.id] = math.inf, kept
-                    continue
-                fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
-                # a part no view sees now, painted from its whole object, is not where the part is: the tracker's
-                if fresh is not None and fresh.points.shape == points[e.id].shape and not stood_in(e, fresh):
-                    points[e.id] = fresh.points
-                    stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
-                    tracked[e.id], measured[e.id] = math.inf, fresh  # measured again now
-        self._history.push(obs.t, points)
-        H, ht = self._history.arrays()
-        stale_ids = {i for i, st in stale.items() if np.any(st)}
-        self._last = (obs.t, dict(points), stale_ids, tracked, measured)
-        verdicts = [
-            v for v in self.runtime.step(points, H, ht, obs.t)
-            if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)
-        ]
-        if len(verdicts) != len(upon_ids) and self._settle_attempt < self.cfg.settle_frames:
-            self._settle_attempt += 1
-            self._settle_next = obs.t + self._period
-            return None
-        self._settling = False
-        ctx.emit("final_check", t=obs.t, verdicts=[v.to_dict() for v in verdicts], refreshed=self.cfg.refresh_on_done)
-        if not self._upon:
-            return self._end_of("success", "policy finished")
-        if len(verdicts) == len(self._upon) and all(v.ok for v in verdicts):
-            return self._end_of("success", "; ".join(v.reason for v in verdicts))
-        bad = [v for v in verdicts if not v.ok]
-        v = bad[0] if bad else None
-        if v is not None:
-            ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, v.t)
-            return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason}")
-        return self._end_of("reactive_failure", "no verdict on the upon checks (faults or lost elements)")
-
 
 __all__ = ["CodeChecker"]

@@ -1,0 +1,161 @@
+"""How a Code-as-Monitor subgoal ends on its ``upon`` checks: re-measured elements, not tracker drift.
+
+A mixin of :class:`~code_as_monitor.agent.code_checker.CodeChecker` (it uses the checker's painter, runtime,
+tracker, history, elements and settings). Upon checks that hold on the tracked positions complete a subgoal only
+if they hold on re-measured elements too (:meth:`SubgoalCompletion._confirm`); a policy that finished with an upon
+check not holding is judged on re-measured elements over up to ``settle_frames`` more frames
+(:meth:`SubgoalCompletion._settle`). Re-measured (:meth:`SubgoalCompletion._refreshed`): an element the tracker
+saw move this subgoal is painted again from the current frame; one at rest keeps its measurement from the
+subgoal's start unless that one was weak.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
+from code_as_monitor.core.constraints import Verdict
+from code_as_monitor.core.elements import Element, stood_in
+from code_as_monitor.core.observation import Observation
+
+
+class SubgoalCompletion:
+    """The end-of-subgoal judgement of :class:`~code_as_monitor.agent.code_checker.CodeChecker` (a mixin)."""
+
+    cfg: Any
+    painter: Any
+    runtime: Any
+    tracker: Any
+    _elements: list[Element]
+    _painted: Any
+    _history: Any
+    _tracked: dict[int, float]
+    _upon: list[Any]
+    _uses: dict[str, set[int]]
+    _period: float
+    _subgoal: Any
+    _last: tuple | None
+    _settling: bool
+    _settle_attempt: int
+    _settle_next: float
+    _fold_support: Callable[[Any, set[int]], None]
+    _end_of: Callable[..., SubgoalEnd]
+
+    # --- the policy has finished: judge the upon checks ---------------------------------------------------
+    def _remeasured_at_rest(self, obs: Observation, e: Element, ctx: MonitorContext) -> Element | None:
+        """A fresh measurement of ``e``, an element the tracker saw at rest all subgoal, to judge the upon checks on
+        instead of its measurement from the subgoal start; None keeps that one.
+
+        The start measurement is kept unless its own support calls it weak (:meth:`ElementSupport.weak
+        <code_as_monitor.core.elements.ElementSupport.weak>`: e.g. painted mostly through the robot, whose arm is
+        often over the next target when a subgoal starts) and a measurement from this static frame is not weak.
+        A strong start measurement is kept even when the fresh one differs: re-painting now measures what is left
+        visible (the sides of a block another block now covers)."""
+        sup = e.support
+        if sup is None or not sup.weak():
+            return None
+        fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
+        if fresh is None or fresh.support is None or fresh.support.weak() or fresh.points.shape != e.points.shape:
+            return None
+        shift = float(np.linalg.norm(fresh.points.mean(axis=0) - e.points.mean(axis=0)))
+        ctx.emit("element_remeasured", t=obs.t, id=e.id, name=e.name, robot_hidden_start=round(sup.robot_hidden, 3),
+                 robot_hidden_now=round(fresh.support.robot_hidden, 3), shift=round(shift, 4))
+        return fresh
+
+    def _refreshed(self, obs: Observation, tr: Any, ctx: MonitorContext,
+                   confirming: bool = False) -> tuple[dict, dict, dict, dict]:
+        """The elements to judge the upon checks on: (points, stale, tracked support, measured elements) by id.
+
+        With ``refresh_on_done``, an element the tracker saw move more than ``refresh_motion`` this subgoal is painted
+        again from this frame; one at rest all along keeps its measurement from the subgoal start, unless that one
+        was weak (:meth:`_remeasured_at_rest`). Without it, the tracked positions. ``confirming``
+        (:meth:`_confirm`): a moved part keeps its tracked position unless its new paint is strong (a part seen
+        poorly now, a book held upright with its spine behind the cover and seen end-on, is better where the tracker
+        carried it); a whole object, whose box the painter completes behind what hides it, is painted again."""
+        points = dict(tr.points)
+        stale = {i: np.asarray(st) for i, st in tr.stale.items()}
+        tracked, measured = dict(self._tracked), {}
+        if not self.cfg.refresh_on_done:
+            return points, stale, tracked, measured
+        H0, _ = self._history.arrays()
+        for e in self._elements:
+            if e.owner[0] == "robot" or e.id not in H0:
+                continue
+            moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
+            if moved <= self.cfg.refresh_motion:
+                # at rest all along: its measurement from the subgoal start, unless that one was weak (kept, it is
+                # as good as the tracker that says it rested: its tracked support stays; re-measured, it is new)
+                kept = self._remeasured_at_rest(obs, e, ctx) or e
+                points[e.id] = kept.points
+                stale[e.id] = np.zeros(len(kept.points), dtype=bool)
+                if kept is not e:
+                    tracked[e.id], measured[e.id] = math.inf, kept
+                continue
+            fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
+            if confirming and e.owner[1] and (fresh is None or fresh.support is None or fresh.support.weak()):
+                continue
+            # a part no view sees now, painted from its whole object, is not where the part is: the tracker's
+            if fresh is not None and fresh.points.shape == points[e.id].shape and not stood_in(e, fresh):
+                points[e.id] = fresh.points
+                stale[e.id] = np.zeros(len(fresh.points), dtype=bool)
+                tracked[e.id], measured[e.id] = math.inf, fresh  # measured again now
+        return points, stale, tracked, measured
+
+    def _confirm(self, obs: Observation, tr: Any, upon_v: list[Verdict], ctx: MonitorContext) -> list[Verdict] | None:
+        """The upon verdicts on re-measured elements (:meth:`_refreshed`) when every one of them holds, else None.
+
+        Upon checks that hold on tracked positions complete a subgoal only if they hold on a fresh measurement too:
+        a tracker's error at the end of a subgoal (a block registered 5 mm sideways as it settled under the cup)
+        must not pass an offset the task's tolerance fails, as it cannot fail one it passes (the settle path)."""
+        points, stale, tracked, measured = self._refreshed(obs, tr, ctx, confirming=True)
+        if not measured:
+            return upon_v
+        stale_ids = {i for i, st in stale.items() if np.any(st)}
+        H, ht = self._history.arrays()
+        ids = {c.id for c in self._upon}
+        again = [v for v in self.runtime.step(points, H, ht, obs.t)
+                 if v.constraint_id in ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)]
+        ok = len(again) == len(ids) and all(v.ok for v in again)
+        ctx.emit("completion_check", t=obs.t, confirmed=ok, remeasured=sorted(measured),
+                 verdicts=[v.to_dict() for v in again])
+        if not ok:
+            return None
+        self._last = (obs.t, dict(points), stale_ids, tracked, measured)
+        return again
+
+    def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
+        one period apart, until every upon check has a verdict that is neither a fault nor stale."""
+        upon_ids = {c.id for c in self._upon}
+        tr = self.tracker.step(obs)
+        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        points, stale, tracked, measured = self._refreshed(obs, tr, ctx)
+        self._history.push(obs.t, points)
+        H, ht = self._history.arrays()
+        stale_ids = {i for i, st in stale.items() if np.any(st)}
+        self._last = (obs.t, dict(points), stale_ids, tracked, measured)
+        verdicts = [
+            v for v in self.runtime.step(points, H, ht, obs.t)
+            if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)
+        ]
+        if len(verdicts) != len(upon_ids) and self._settle_attempt < self.cfg.settle_frames:
+            self._settle_attempt += 1
+            self._settle_next = obs.t + self._period
+            return None
+        self._settling = False
+        ctx.emit("final_check", t=obs.t, verdicts=[v.to_dict() for v in verdicts], refreshed=self.cfg.refresh_on_done)
+        if not self._upon:
+            return self._end_of("success", "policy finished")
+        if len(verdicts) == len(self._upon) and all(v.ok for v in verdicts):
+            return self._end_of("success", "; ".join(v.reason for v in verdicts))
+        bad = [v for v in verdicts if not v.ok]
+        v = bad[0] if bad else None
+        if v is not None:
+            ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, v.t)
+            return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason}")
+        return self._end_of("reactive_failure", "no verdict on the upon checks (faults or lost elements)")
+

@@ -1,0 +1,76 @@
+"""A subgoal completes on its upon checks only if they hold on re-measured elements too (``agent.completion``).
+
+Fakes from ``loop_fakes``: one block moved along x towards a goal at x >= 0.2 m. The tracker here drifts 3 cm ahead of
+the block, so on tracked positions the upon check "arrived" holds before the block gets there; the painter measures
+the block where it is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal, user_loop
+
+from code_as_monitor.agent.code_checker import CodeChecker
+from code_as_monitor.agent.config import AgentConfig
+from code_as_monitor.agent.monitor import Monitor
+from code_as_monitor.core import Element
+from code_as_monitor.core.elements import ElementSupport
+
+DRIFT = 0.03
+
+
+class DriftingTracker(Tracker):
+    def step(self, obs):
+        tr = super().step(obs)
+        return type(tr)({i: p + np.array([[DRIFT, 0.0, 0.0]]) for i, p in tr.points.items()}, tr.stale)
+
+
+class MeasuringPainter(Painter):
+    """Paints the block where it is (a strong measurement: many points, two views, nothing hidden)."""
+
+    def __init__(self, world: World) -> None:
+        self.w = world
+        self.built = 0
+
+    def build_element(self, obs, i, spec):
+        self.built += 1
+        sup = ElementSupport(points=200, views=2, residual=0.001, spread=0.02, extent=(0.04, 0.04, 0.04))
+        return Element.point(i, spec.name, np.array([self.w.x, 0.0, 0.1]), (spec.obj, spec.part), support=sup)
+
+
+def _run(stop_at: float, refresh: bool = True) -> tuple[Monitor, list, list, MeasuringPainter]:
+    w = World()
+    painter = MeasuringPainter(w)
+    checker = CodeChecker(Coder(), painter, DriftingTracker(w), Runtime(RULES), History,
+                          AgentConfig(refresh_on_done=refresh))
+    events: list = []
+    m = Monitor(Planner([_subgoal("move block", during=False)]), checker, max_replans=0,
+                on_event=lambda k, **f: events.append((k, f)))
+    decisions = user_loop(m, w, MovePolicy(w, stop_at=stop_at))
+    return m, decisions, events, painter
+
+
+def test_a_drifting_tracker_does_not_complete_a_subgoal_the_block_has_not_done() -> None:
+    """The block stops at 0.18 m (the goal needs 0.2): the tracker reads 0.21 and the upon check holds on it, but not
+    on the block painted again; the subgoal ends in a reactive failure at the policy's end, not in success."""
+    m, _, events, painter = _run(stop_at=0.18)
+    assert m.episode.subgoals[0].outcome == "reactive_failure", m.episode.subgoals[0]
+    unconfirmed = [f for k, f in events if k == "completion_check" and not f["confirmed"]]
+    assert unconfirmed and painter.built > 0
+    assert not [k for k, _ in events if k == "early_halt"]
+
+
+def test_without_refresh_the_tracked_positions_decide_as_before() -> None:
+    m, _, events, _ = _run(stop_at=0.18, refresh=False)
+    assert m.episode.subgoals[0].outcome == "success"
+    assert not [k for k, _ in events if k == "completion_check"]
+
+
+def test_a_block_that_did_arrive_completes_and_halts_the_policy_early() -> None:
+    """Confirmed on the re-measured block (0.25 m of a 0.3 m move when the check first holds), the subgoal ends in
+    success while the policy still moves (an early halt), and the next subgoal starts from the measurement."""
+    m, decisions, events, _ = _run(stop_at=0.3)
+    assert m.episode.subgoals[0].outcome == "success"
+    confirmed = [f for k, f in events if k == "completion_check" and f["confirmed"]]
+    assert confirmed and [k for k, _ in events if k == "early_halt"]
+    assert any(d.halt for d in decisions)
