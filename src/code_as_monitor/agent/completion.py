@@ -73,9 +73,10 @@ class SubgoalCompletion:
         With ``refresh_on_done``, an element the tracker saw move more than ``refresh_motion`` this subgoal is painted
         again from this frame; one at rest all along keeps its measurement from the subgoal start, unless that one
         was weak (:meth:`_remeasured_at_rest`). Without it, the tracked positions. ``confirming``
-        (:meth:`_confirm`): a moved part keeps its tracked position unless its new paint is strong (a part seen
-        poorly now, a book held upright with its spine behind the cover and seen end-on, is better where the tracker
-        carried it); a whole object, whose box the painter completes behind what hides it, is painted again."""
+        (:meth:`_confirm`): only moved whole objects, whose box the painter completes behind what hides them, are
+        painted again; a moved part keeps its tracked position, since what a view shows of a part at a subgoal's end
+        can be a misleading piece of it (a book held upright with its spine behind the cover, seen end-on, re-paints
+        87-90 degrees off vertical, and not weak: stow-book (c) episodes 476548990 and 2125215470)."""
         points = dict(tr.points)
         stale = {i: np.asarray(st) for i, st in tr.stale.items()}
         tracked, measured = dict(self._tracked), {}
@@ -95,9 +96,9 @@ class SubgoalCompletion:
                 if kept is not e:
                     tracked[e.id], measured[e.id] = math.inf, kept
                 continue
+            if confirming and e.owner[1]:
+                continue  # a part keeps its tracked position (see the docstring)
             fresh = self.painter.build_element(obs, e.id, self._painted.specs[e.id])
-            if confirming and e.owner[1] and (fresh is None or fresh.support is None or fresh.support.weak()):
-                continue
             # a part no view sees now, painted from its whole object, is not where the part is: the tracker's
             if fresh is not None and fresh.points.shape == points[e.id].shape and not stood_in(e, fresh):
                 points[e.id] = fresh.points
