@@ -116,11 +116,8 @@ class SubgoalCompletion:
         if not measured:
             return upon_v
         stale_ids = {i for i, st in stale.items() if np.any(st)}
-        H, ht = self._history.arrays()
-        ids = {c.id for c in self._upon}
-        again = [v for v in self.runtime.step(points, H, ht, obs.t)
-                 if v.constraint_id in ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)]
-        ok = len(again) == len(ids) and all(v.ok for v in again)
+        again = self._upon_verdicts(points, stale_ids, obs.t)
+        ok = len(again) == len(self._upon) and all(v.ok for v in again)
         ctx.emit("completion_check", t=obs.t, confirmed=ok, remeasured=sorted(measured),
                  verdicts=[v.to_dict() for v in again])
         if not ok:
@@ -128,22 +125,25 @@ class SubgoalCompletion:
         self._last = (obs.t, dict(points), stale_ids, tracked, measured)
         return again
 
+    def _upon_verdicts(self, points: dict, stale_ids: set[int], t: float) -> list[Verdict]:
+        """The program's upon verdicts on ``points`` (element id -> (k, 3) world metres) with the current history;
+        a fault, or a check reading an element in ``stale_ids``, is no verdict."""
+        H, ht = self._history.arrays()
+        ids = {c.id for c in self._upon}
+        return [v for v in self.runtime.step(points, H, ht, t)
+                if v.constraint_id in ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)]
+
     def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
         one period apart, until every upon check has a verdict that is neither a fault nor stale."""
-        upon_ids = {c.id for c in self._upon}
         tr = self.tracker.step(obs)
         self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
         points, stale, tracked, measured = self._refreshed(obs, tr, ctx)
         self._history.push(obs.t, points)
-        H, ht = self._history.arrays()
         stale_ids = {i for i, st in stale.items() if np.any(st)}
         self._last = (obs.t, dict(points), stale_ids, tracked, measured)
-        verdicts = [
-            v for v in self.runtime.step(points, H, ht, obs.t)
-            if v.constraint_id in upon_ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)
-        ]
-        if len(verdicts) != len(upon_ids) and self._settle_attempt < self.cfg.settle_frames:
+        verdicts = self._upon_verdicts(points, stale_ids, obs.t)
+        if len(verdicts) != len(self._upon) and self._settle_attempt < self.cfg.settle_frames:
             self._settle_attempt += 1
             self._settle_next = obs.t + self._period
             return None
