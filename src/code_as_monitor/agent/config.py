@@ -13,6 +13,7 @@ from typing import Any
 
 from code_as_monitor.agent.check_modes import check_mode
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SAME_START, DEFAULT_MAX_SUBGOALS
+from code_as_monitor.agent.rest import RestWait
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.painter.sources import check_element_source
@@ -45,6 +46,11 @@ class AgentConfig:
             as moved.
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
+        rest_max_s: after a halt or a failed subgoal, re-plan once the scene has come to rest (the depth images
+            stop changing; :class:`~code_as_monitor.agent.rest.RestWait`), but after at most this many seconds;
+            0: re-plan on the failing frame.
+        rest_still_frames: consecutive monitored frames without motion that count as at rest.
+        rest_depth_tol: metres of depth change above which a pixel counts as moved.
         checks: which of each subgoal's checks run (an ablation switch, :mod:`~code_as_monitor.agent.check_modes`):
             ``all`` (default), ``reactive`` (only constraints with ``proactive`` False) or ``proactive`` (only
             those with it True). The planner and the feedback are unchanged; the dropped constraints are neither
@@ -63,6 +69,9 @@ class AgentConfig:
     refresh_on_done: bool = True
     refresh_motion: float = 0.03
     settle_frames: int = 5
+    rest_max_s: float = 1.5
+    rest_still_frames: int = 2
+    rest_depth_tol: float = 0.005
     checks: str = "all"
 
     def __post_init__(self) -> None:
@@ -79,7 +88,16 @@ class AgentConfig:
         for f in ("code_retries", "upon_dwell_frames", "settle_frames"):
             check_count(name, f, getattr(self, f), 0)
         check_range(name, "refresh_motion", self.refresh_motion, 0.0, None)
+        check_range(name, "rest_max_s", self.rest_max_s, 0.0, None)
+        check_count(name, "rest_still_frames", self.rest_still_frames, 1)
+        check_range(name, "rest_depth_tol", self.rest_depth_tol, 0.0, None, lo_open=True)
         check_mode(self.checks, f"{name}.checks")
+
+
+    def rest_wait(self) -> RestWait:
+        """The re-plan wait these settings describe (compared frames one monitoring period apart)."""
+        return RestWait(max_s=self.rest_max_s, period_s=1.0 / self.frame_hz, still_frames=self.rest_still_frames,
+                        depth_tol=self.rest_depth_tol)
 
 
 @dataclass

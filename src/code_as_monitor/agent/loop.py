@@ -63,6 +63,7 @@ class Agent:
         """A fresh streaming monitor over this agent's stages."""
         return Monitor(self.planner, self.checker, max_replans=self.cfg.max_replans,
                        max_subgoals=self.cfg.max_subgoals, max_same_start=self.cfg.max_same_start,
+                       rest=self.cfg.rest_wait(),
                        time_limit_s=self.cfg.time_limit_s, on_event=self.on_event)
 
     def run(self, instruction: str, env: Environment, policy: Policy) -> EpisodeLog:

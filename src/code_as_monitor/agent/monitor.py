@@ -8,6 +8,9 @@ next feedback (``"success"`` or ``"failure: <reason>"``). The monitor stops when
 task is complete, after ``max_replans`` failed subgoals, after ``max_subgoals`` subgoals, at the
 time limit, or when it is stuck: the planner proposed the same subgoal ``max_same_start`` times on one
 observation and it could not start each time (nothing moved in between, so nothing would change).
+After a halt or a failed subgoal the monitor re-plans once the scene has come to rest
+(:class:`~code_as_monitor.agent.rest.RestWait`: the depth images stop changing, at most ``max_s``): the
+halting decision then carries no action, and a later frame's ``start`` decision carries the re-planned one.
 
 The caller owns the policy and the clock. Each frame it hands over an
 :class:`~code_as_monitor.core.observation.Observation` and whether the policy has finished its
@@ -39,6 +42,8 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from code_as_monitor.agent.decision import Decision, DecisionKind
 from code_as_monitor.agent.records import (
     DEFAULT_MAX_REPLANS,
@@ -49,6 +54,7 @@ from code_as_monitor.agent.records import (
     EpisodeLog,
     SubgoalRecord,
 )
+from code_as_monitor.agent.rest import NO_WAIT, RestWait
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalChecker, SubgoalEnd
 from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.errors import ConfigError, ObservationError, VLMError
@@ -78,6 +84,7 @@ class Monitor:
             which the episode stops as stuck.
         time_limit_s: no new subgoal is planned at or after this time (observation seconds); None: none.
         cameras: view names to use; None: every view of the observation.
+        rest: when to re-plan after a failure (:class:`~code_as_monitor.agent.rest.RestWait`); None: at once.
         on_event: ``fn(kind, **fields)`` for the event log.
         usage: the planner's token meter (``calls``, ``episode()``), reported by :attr:`usage`.
         owned: objects closed by :meth:`close` (the sandbox runtime of :meth:`from_config`).
@@ -85,7 +92,7 @@ class Monitor:
 
     def __init__(self, planner: Any, checker: SubgoalChecker, *, max_replans: int = DEFAULT_MAX_REPLANS,
                  max_subgoals: int = DEFAULT_MAX_SUBGOALS, max_same_start: int = DEFAULT_MAX_SAME_START,
-                 time_limit_s: float | None = None,
+                 time_limit_s: float | None = None, rest: RestWait | None = None,
                  cameras: list[str] | None = None, on_event: EventFn | None = None, usage: Any = None,
                  owned: list[Any] | None = None) -> None:
         if max_replans < 0:
@@ -100,13 +107,17 @@ class Monitor:
         self.max_subgoals = max_subgoals
         self.max_same_start = max_same_start
         self.time_limit_s = time_limit_s
+        self.rest = rest if rest is not None else NO_WAIT
         self.cameras = list(cameras) if cameras else None
         self.emit: EventFn = on_event or _noop_event
         self.usage = usage
         self._owned = list(owned or [])
         self._ctx = MonitorContext(self)
         self.episode = EpisodeLog("")
-        self._state = "idle"  # idle -> plan -> run -> ... -> over
+        self._state = "idle"  # idle -> plan -> run -> (rest ->) plan -> ... -> over
+        self._rest_t0 = self._rest_next = 0.0
+        self._rest_prev: dict[str, np.ndarray] | None = None  # view -> depth of the last rest frame
+        self._rest_still = 0
         self._frame_alarms: list[Alarm] = []
         self._subgoal: Subgoal | None = None
         self._previous: Subgoal | None = None
@@ -126,7 +137,8 @@ class Monitor:
 
         stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend, skills=skills)
         return cls(stages.planner, stages.checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
-                   max_same_start=config.max_same_start, time_limit_s=config.time_limit_s, cameras=config.cameras,
+                   max_same_start=config.max_same_start, time_limit_s=config.time_limit_s,
+                   rest=config.rest_wait(), cameras=config.cameras,
                    on_event=on_event, usage=stages.planner.usage, owned=[stages.runtime])
 
     # ------------------------------------------------------------------------------------------------
@@ -157,6 +169,8 @@ class Monitor:
             raise ObservationError(f"Monitor.frame_due: t must be a finite number of seconds, got {t!r}")
         if self._state == "run":
             return self.checker.frame_due(t, policy_done)
+        if self._state == "rest":
+            return t + 1e-9 >= self._rest_next
         return self._state == "plan"
 
     def step(self, obs: Observation, policy_done: bool = False) -> Decision:
@@ -182,6 +196,8 @@ class Monitor:
         self._frame_alarms = []
         if self._state == "plan":
             return self._plan(obs, DecisionKind.START, halt=False, ended=None)
+        if self._state == "rest":
+            return self._rest_step(obs)
         if not self.checker.frame_due(obs.t, policy_done):
             return Decision(DecisionKind.CONTINUE, obs.t, subgoal=self._subgoal)
         end = self.checker.frame(obs, policy_done, self._ctx)
@@ -192,6 +208,13 @@ class Monitor:
                 else DecisionKind.HALT if end.outcome == "violated" else DecisionKind.SUBGOAL_FAILED)
         if self._state == "over":
             return self._over(obs.t, halt=end.halt, ended=record)
+        if end.outcome != "success" and self.rest.enabled:
+            self._state = "rest"
+            self._subgoal = None
+            self._rest_t0, self._rest_prev, self._rest_still = obs.t, self.rest.depths(obs), 0
+            self._rest_next = obs.t + self.rest.period_s
+            return Decision(kind, obs.t, halt=end.halt, violations=list(self._frame_alarms), ended=record,
+                            reason=record.reason)
         return self._plan(obs, kind, halt=end.halt, ended=record)
 
     def stop(self, reason: str, t: float | None = None) -> Decision:
@@ -225,6 +248,22 @@ class Monitor:
         if missing:
             raise ObservationError(f"observation at t={obs.t} has no view {missing[0]!r}; it has {sorted(obs.views)}")
         return replace(obs, views={c: obs.views[c] for c in self.cameras})
+
+    def _rest_step(self, obs: Observation) -> Decision:
+        """A frame while waiting for the scene to come to rest: re-plan on it once it is (or at ``max_s``)."""
+        if obs.t + 1e-9 < self._rest_next:
+            return Decision(DecisionKind.CONTINUE, obs.t)
+        self._rest_next = obs.t + self.rest.period_s
+        prev, self._rest_prev = self._rest_prev, self.rest.depths(obs)
+        self._rest_still = self._rest_still + 1 if prev is not None and self.rest.still(prev, self._rest_prev) else 0
+        waited = obs.t - self._rest_t0
+        at_rest = self._rest_still >= self.rest.still_frames
+        if not at_rest and waited + 1e-9 < self.rest.max_s:
+            return Decision(DecisionKind.CONTINUE, obs.t)
+        self.emit("rest", t=obs.t, waited_s=round(waited, 4), at_rest=at_rest)
+        self._rest_prev = None
+        self._state = "plan"
+        return self._plan(obs, DecisionKind.START, halt=False, ended=None)
 
     def _plan(self, obs: Observation, kind: DecisionKind, halt: bool, ended: SubgoalRecord | None) -> Decision:
         """Plan subgoals on ``obs`` until one starts (or the episode ends)."""

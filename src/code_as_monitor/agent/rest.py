@@ -1,0 +1,94 @@
+"""Wait for the scene to come to rest before re-planning after a failure.
+
+After a halt or a failed subgoal the world may still be moving: a dropped pen is still falling over, a
+pushed block still sliding. A subgoal planned on that frame aims at where the object was, and its own
+"stays where it lies" checks then fire on the object's remaining motion (slot-pen: 2-4 ``steady_pen`` alarms
+within 0.5 s of every drop, their open-loop continuations often fine). The robot is halted, so what still
+changes in the depth images is the scene. :class:`RestWait` says when it has stopped changing: every
+monitored frame is compared with the one before, and the scene is at rest after ``still_frames`` frames in
+a row in which, in every view, at most ``moved_frac`` of the pixels changed depth by more than ``depth_tol``
+metres (and the ``min_moved`` pixel floor: sensor noise flickers single pixels). The wait ends at
+``max_s`` seconds in any case (a conveyor, a person walking by: the scene may never rest).
+
+Perception only: the depth images the monitor already receives, no element, tracker or simulator pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.observation import Observation
+
+
+@dataclass(frozen=True)
+class RestWait:
+    """When the scene counts as at rest (see the module docstring).
+
+    Attributes:
+        max_s: longest wait in observation seconds; 0 disables the wait (re-plan on the failing frame).
+        period_s: seconds between the frames compared (the monitoring period).
+        still_frames: consecutive still comparisons needed.
+        depth_tol: metres of depth change above which a pixel counts as moved.
+        moved_frac: share of a view's pixels (with a reading in both frames) that may move in a still frame.
+        min_moved: moved pixels always allowed per view (isolated noise), whatever the resolution.
+    """
+
+    max_s: float = 1.5
+    period_s: float = 0.1
+    still_frames: int = 2
+    depth_tol: float = 0.005
+    moved_frac: float = 0.0005
+    min_moved: int = 8
+
+    def __post_init__(self) -> None:
+        for name in ("max_s", "period_s", "depth_tol", "moved_frac"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ConfigError(f"RestWait.{name} must be a finite number >= 0, got {v!r}")
+        if self.period_s <= 0:
+            raise ConfigError(f"RestWait.period_s must be > 0, got {self.period_s!r}")
+        for name in ("still_frames", "min_moved"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise ConfigError(f"RestWait.{name} must be an integer >= 0, got {v!r}")
+        if self.still_frames < 1:
+            raise ConfigError(f"RestWait.still_frames must be >= 1, got {self.still_frames!r}")
+
+    @property
+    def enabled(self) -> bool:
+        return self.max_s > 0
+
+    @staticmethod
+    def depths(obs: Observation) -> dict[str, np.ndarray]:
+        """Each view's depth image, (H, W) float32 metres, read now (a simulator renders a view when first
+        read, and only before its world steps again; the wait compares a frame with a later one)."""
+        return {name: np.array(v.depth, dtype=np.float32) for name, v in obs.views.items()}
+
+    def moved_pixels(self, before: dict[str, np.ndarray], now: dict[str, np.ndarray]) -> dict[str, tuple[int, int]]:
+        """Per view present in both depth sets (see :meth:`depths`) with equal image sizes: (moved pixels,
+        pixels with a reading in both). Views that changed size or appeared are skipped (nothing to compare)."""
+        out: dict[str, tuple[int, int]] = {}
+        for name, d1 in now.items():
+            d0 = before.get(name)
+            if d0 is None or d0.shape != d1.shape:
+                continue
+            ok = np.isfinite(d0) & np.isfinite(d1) & (d0 > 0) & (d1 > 0)
+            moved = ok & (np.abs(d1 - d0) > self.depth_tol)
+            out[name] = (int(np.count_nonzero(moved)), int(np.count_nonzero(ok)))
+        return out
+
+    def still(self, before: dict[str, np.ndarray], now: dict[str, np.ndarray]) -> bool:
+        """Whether nothing moved between two frames' depths (every compared view within the allowance)."""
+        for moved, valid in self.moved_pixels(before, now).values():
+            if moved > max(self.min_moved, self.moved_frac * valid):
+                return False
+        return True
+
+
+NO_WAIT = RestWait(max_s=0.0)
+
+__all__ = ["NO_WAIT", "RestWait"]

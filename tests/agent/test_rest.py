@@ -1,0 +1,131 @@
+"""Re-planning after a failure waits for the scene to come to rest (``agent/rest.py``, ``Monitor``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal, user_loop
+
+from code_as_monitor.agent.code_checker import CodeChecker
+from code_as_monitor.agent.config import AgentConfig
+from code_as_monitor.agent.decision import DecisionKind
+from code_as_monitor.agent.monitor import Monitor
+from code_as_monitor.agent.rest import RestWait
+from code_as_monitor.core import Observation, View
+from code_as_monitor.core.camera import CameraModel
+from code_as_monitor.core.errors import ConfigError
+
+H, W = 48, 64
+CAM = CameraModel.look_at("front", np.array([1.0, 0, 1]), np.zeros(3), W, H, 60.0)
+
+
+def _depth(col: int | None) -> dict[str, np.ndarray]:
+    """A table at 1 m with a 6x6 px object 5 cm nearer at column ``col`` (None: no object)."""
+    d = np.full((H, W), 1.0, np.float32)
+    if col is not None:
+        d[20:26, col:col + 6] = 0.95
+    return {"front": d}
+
+
+def test_still_ignores_noise_and_missing_readings_and_sees_a_moving_object() -> None:
+    rest = RestWait()
+    rng = np.random.default_rng(0)
+    a = _depth(10)
+    b = {"front": a["front"] + rng.normal(0, 0.001, (H, W)).astype(np.float32)}  # 1 mm sensor noise
+    b["front"][0:2, 0:3] += 0.05  # 6 flickering pixels: under the per-view floor
+    b["front"][30:40, 30:40] = np.nan  # lost readings are not motion
+    b["front"][40:44, 0:10] = 0.0
+    assert rest.still(a, b)
+    assert not rest.still(a, _depth(13)), "an object moved 3 px"
+    assert rest.moved_pixels(a, _depth(13))["front"][0] == 2 * 3 * 6
+    assert rest.still(a, {"front": np.ones((H // 2, W // 2), np.float32)}), "a resized view is not compared"
+    assert rest.still(a, {"side": np.zeros((H, W), np.float32)}), "a view absent before is not compared"
+
+
+class FallingWorld(World):
+    """The fake loop's world with one depth view: after ``t_fall`` an object slides 2 px per 0.1 s until ``t_rest``
+    (``None``: it never stops)."""
+
+    def __init__(self, t_drop: float, t_rest: float | None) -> None:
+        super().__init__(t_drop=t_drop)
+        self.t_rest = t_rest
+
+    def col(self) -> int:
+        if self.t < self.t_drop:
+            return 5
+        end = self.t if self.t_rest is None else min(self.t, self.t_rest)
+        return 5 + int(20 * (end - self.t_drop)) % 50
+
+    def observe(self) -> Observation:
+        d = _depth(self.col())["front"]
+        return Observation(t=self.t, views={"front": View(np.zeros((H, W, 3), np.uint8), d, CAM)},
+                           objects=["block"])
+
+
+def _run(world: World, rest: RestWait) -> tuple[list, list, Planner]:
+    events: list = []
+    planner = Planner([_subgoal("move block"), _subgoal("move block again", during=False)])
+    checker = CodeChecker(Coder(), Painter(), Tracker(world), Runtime(RULES), History, AgentConfig())
+    m = Monitor(planner, checker, rest=rest, on_event=lambda k, **f: events.append((k, f)))
+    return user_loop(m, world, MovePolicy(world)), events, planner
+
+
+def test_the_replan_waits_until_the_scene_stops_moving() -> None:
+    """The block drops at 0.3 s and slides until 1.0 s: the halt carries no action; the re-planned subgoal starts
+    on the first frame after two still frames (1.2 s), planned on that frame."""
+    w = FallingWorld(t_drop=0.3, t_rest=1.0)
+    decisions, events, planner = _run(w, RestWait(max_s=3.0))
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    assert halt.halt and halt.action is None and halt.subgoal is None and halt.ended.outcome == "violated"
+    restart = next(d for d in decisions if d.t > halt.t and d.action is not None)
+    assert restart.kind is DecisionKind.START and restart.subgoal.text == "move block again"
+    assert restart.t == pytest.approx(1.2, abs=0.11)
+    assert len(planner.calls) >= 2 and planner.calls[1][1].startswith("failure: attached")
+    rest = [f for k, f in events if k == "rest"]
+    assert len(rest) == 1 and rest[0]["at_rest"] and rest[0]["waited_s"] == pytest.approx(restart.t - halt.t)
+    assert decisions[-1].kind is DecisionKind.TASK_DONE
+
+
+def test_a_scene_that_never_rests_is_replanned_after_max_s() -> None:
+    w = FallingWorld(t_drop=0.3, t_rest=None)
+    decisions, events, _ = _run(w, RestWait(max_s=0.8))
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    restart = next(d for d in decisions if d.t > halt.t and d.action is not None)
+    assert restart.t - halt.t == pytest.approx(0.8, abs=0.11)
+    assert [f["at_rest"] for k, f in events if k == "rest"] == [False]
+
+
+def test_without_the_wait_the_replan_is_on_the_halting_frame() -> None:
+    w = FallingWorld(t_drop=0.3, t_rest=1.0)
+    decisions, events, _ = _run(w, RestWait(max_s=0.0))
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    assert halt.action is not None and halt.subgoal.text == "move block again"
+    assert not [k for k, _ in events if k == "rest"]
+
+
+def test_frames_while_waiting_are_due_once_per_period() -> None:
+    w = FallingWorld(t_drop=0.3, t_rest=1.0)
+    checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), History, AgentConfig())
+    m = Monitor(Planner([_subgoal("move block"), _subgoal("again")]), checker, rest=RestWait(max_s=3.0))
+    decisions = user_loop(m, w, MovePolicy(w), camera_hz=50.0)
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    restart = next(d for d in decisions if d.t > halt.t and d.action is not None)
+    waiting = [d for d in decisions if halt.t < d.t < restart.t]
+    assert waiting and all(d.kind is DecisionKind.CONTINUE for d in waiting)
+
+
+@pytest.mark.parametrize(("field", "value", "match"), [
+    ("rest_max_s", -1.0, "rest_max_s"), ("rest_still_frames", 0, "rest_still_frames"),
+    ("rest_depth_tol", 0.0, "rest_depth_tol"), ("rest_max_s", float("nan"), "rest_max_s"),
+])
+def test_bad_rest_settings_name_the_field(field: str, value: float, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        AgentConfig(**{field: value})
+
+
+def test_the_config_gives_a_wait_one_monitoring_period_apart() -> None:
+    r = AgentConfig(frame_hz=20.0, rest_max_s=2.0, rest_still_frames=3).rest_wait()
+    assert (r.max_s, r.period_s, r.still_frames, r.enabled) == (2.0, 0.05, 3, True)
+    assert not AgentConfig(rest_max_s=0.0).rest_wait().enabled
+    with pytest.raises(ConfigError, match="period_s"):
+        RestWait(period_s=0.0)
