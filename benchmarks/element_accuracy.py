@@ -21,7 +21,8 @@ centre), line direction and surface normal error median / max (degrees), line ax
 (mm), the elements that no view saw and the parts no view saw (the painter then builds the whole object's
 element, which is not scored against the part); then per task and element; then overall per view set; the
 worst point-like errors from two views (which element, scene and views); the centred pairs' horizontal offsets;
-and machine-readable ``name: value unit`` lines for the two-view targets (points median <= 3 mm and max
+whether the painter knows which elements are off (large errors it flagged weak or gave a matching uncertainty, and
+the errors of the elements it calls sound); and machine-readable ``name: value unit`` lines for the two-view targets (points median <= 3 mm and max
 <= 8 mm, directions <= 2 degrees, centred pairs <= 5 mm) and for the front view alone.
 
 Run: ``nice -n 10 .venv/bin/python benchmarks/element_accuracy.py [--seeds 5] [--every 2.0] [--tasks ...]``.
@@ -171,6 +172,8 @@ class Record:
     errors: dict[str, float] | None  # None: missing, or its part unseen (the whole object stood in)
     part_unseen: bool = False
     name: str = ""
+    weak: bool = False  # the painter's own verdict on the element (ElementSupport.weak)
+    uncertainty: float = 0.0  # m, ElementSupport.uncertainty (how far its assumed sides let the centre lie)
 
 
 def evaluate(scenes: list[Scene], painter: Painter) -> tuple[list[Record], dict[tuple[str, float], list[float]],
@@ -193,8 +196,10 @@ def evaluate(scenes: list[Scene], painter: Painter) -> tuple[list[Record], dict[
                     e = by_id.get(i)
                     unseen = e is not None and e.support is not None and not e.support.part_seen
                     err = None if e is None or unseen else element_errors(spec.kind, e.points, sc.truth[i])
+                    sup = e.support if e is not None else None
                     records.append(Record(sc.task, sc.label, vs, noise, spec.kind.value, err, unseen,
-                                          f"{spec.obj}/{spec.part or '*'}"))
+                                          f"{spec.obj}/{spec.part or '*'}", sup is not None and sup.weak(),
+                                          sup.uncertainty if sup is not None else 0.0))
                 for lo, hi in sc.pairs:
                     if lo in by_id and hi in by_id:
                         d = by_id[hi].points[0, :2] - by_id[lo].points[0, :2]
@@ -228,6 +233,25 @@ def _missing(recs: list[Record]) -> str:
 def _fmt(s: dict[str, tuple[float, float, int]]) -> str:
     return "  ".join(f"{k.replace('_deg', '')} {s[k][0]:.1f}/{s[k][1]:.1f} {UNIT[k]} (n={s[k][2]})"
                      for k in ORDER if k in s)
+
+
+LARGE_MM = 8.0
+"""A point-like error above the two-view point target (mm): an element a check should not trust as it is."""
+
+
+def _point_like_mm(r: Record) -> float:
+    return 1000.0 * max(v for k, v in r.errors.items() if not k.endswith("_deg"))
+
+
+def self_knowledge(records: list[Record]) -> tuple[int, int, dict[str, tuple[float, float, int]]]:
+    """Whether the painter knows which elements are off: among scored elements with a point-like error over
+    ``LARGE_MM``, how many it flagged weak or gave an uncertainty of at least half the error (n flagged, n large);
+    and the summary over the elements it calls sound (not weak, uncertainty under ``LARGE_MM``)."""
+    scored = [r for r in records if r.errors is not None]
+    large = [r for r in scored if _point_like_mm(r) > LARGE_MM]
+    flagged = [r for r in large if r.weak or 1000.0 * r.uncertainty >= 0.5 * _point_like_mm(r)]
+    sound = [r for r in scored if not r.weak and 1000.0 * r.uncertainty < LARGE_MM]
+    return len(flagged), len(large), _summary(sound)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -282,6 +306,18 @@ def main(argv: list[str] | None = None) -> int:
         a = 1000.0 * np.asarray(v)
         print(f"  {vs:<9} noise {noise:.0f} mm: median {np.median(a):.1f}, max {a.max():.1f} (n={len(a)})")
     print(f"paint time per scene and view set: median {1000 * np.median(times):.0f} ms")
+    print(f"does the painter know? point-like errors over {LARGE_MM:.0f} mm flagged weak (ElementSupport.weak) or with "
+          f"an uncertainty of at least half the error; and the elements it calls sound (not weak, uncertainty under "
+          f"{LARGE_MM:.0f} mm):")
+    knows: dict[str, tuple[int, int, dict]] = {}
+    for tag, sets in (("two_view", TWO_VIEW_SETS), ("front_only", ("front",))):
+        knows[tag] = k = self_knowledge([r for r in records if r.views in sets])
+        unflagged = sorted({(r.task, r.name) for r in records if r.views in sets and r.errors is not None
+                            and _point_like_mm(r) > LARGE_MM and not r.weak
+                            and 1000.0 * r.uncertainty < 0.5 * _point_like_mm(r)})
+        print(f"  {tag:<10}: {k[0]}/{k[1]} large errors flagged; sound elements: {_fmt(k[2])}")
+        if unflagged:
+            print(f"             large and not flagged: {', '.join(f'{t} {n}' for t, n in unflagged)}")
 
     def agg(sets, metric: str, stat: int) -> float:
         vals = [overall[(vs, n)][metric][stat] for vs in sets for n in NOISES_MM if metric in overall[(vs, n)]]
@@ -297,6 +333,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{tag}_direction_max: {agg(sets, 'direction_deg', 1):.2f} deg")
         print(f"{tag}_normal_max: {agg(sets, 'normal_deg', 1):.2f} deg")
         print(f"{tag}_centred_pair_max: {pair_max(sets):.2f} mm")
+        flagged, large, sound = knows[tag]
+        print(f"{tag}_large_errors_flagged: {flagged}/{large} count")
+        print(f"{tag}_sound_point_max: {sound['point'][1] if 'point' in sound else float('nan'):.2f} mm")
     return 0
 
 
