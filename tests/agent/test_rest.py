@@ -129,3 +129,37 @@ def test_the_config_gives_a_wait_one_monitoring_period_apart() -> None:
     assert not AgentConfig(rest_max_s=0.0).rest_wait().enabled
     with pytest.raises(ConfigError, match="period_s"):
         RestWait(period_s=0.0)
+
+
+def test_in_hand_needs_a_closed_gripper_and_an_object_at_the_tip() -> None:
+    from code_as_monitor.agent.rest import in_hand
+    from code_as_monitor.core.observation import RobotState
+
+    pose = np.eye(4)
+    pose[:3, 3] = [0.4, 0.0, 0.3]
+    closed = RobotState(pose, gripper=1.0, ee_kind="gripper", ee_points={"tip": np.array([0.4, 0.0, 0.25])})
+    handle = {3: np.array([[0.41, 0.01, 0.26]])}  # 1.7 cm from the tip
+    owners = {3: "teapot", 7: "robot"}
+    assert in_hand(closed, handle, owners)
+    assert not in_hand(RobotState(pose, gripper=0.0, ee_points=closed.ee_points), handle, owners), "open: not held"
+    assert not in_hand(closed, {3: np.array([[0.4, 0.0, 0.15]])}, owners), "10 cm below the tip: dropped"
+    assert not in_hand(closed, {7: np.array([[0.4, 0.0, 0.25]])}, owners), "the robot's own element"
+    assert not in_hand(closed, {3: np.full((1, 3), np.nan)}, owners)
+    assert not in_hand(None, handle, owners)
+    line = {3: np.array([[0.4, 0.08, 0.25], [0.4, -0.06, 0.25]])}  # a pen held near its middle
+    assert in_hand(closed, line, owners)
+
+
+def test_a_failure_with_an_object_in_hand_is_replanned_at_once() -> None:
+    """A halted hand keeps what it holds: waiting could only let it get worse (tea running into a tipped pot's
+    spout), so the re-plan comes with the halt, and the event says why."""
+    w = FallingWorld(t_drop=0.3, t_rest=1.0)
+    events: list = []
+    checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), History, AgentConfig())
+    checker.holding = lambda obs: True
+    m = Monitor(Planner([_subgoal("move block"), _subgoal("again", during=False)]), checker,
+                rest=RestWait(max_s=3.0), on_event=lambda k, **f: events.append((k, f)))
+    decisions = user_loop(m, w, MovePolicy(w))
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    assert halt.action is not None and halt.subgoal.text == "again"
+    assert [f.get("skipped") for k, f in events if k == "rest"] == ["an object is in hand"]

@@ -25,6 +25,7 @@ import numpy as np
 from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
+from code_as_monitor.agent.rest import in_hand
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
@@ -121,6 +122,15 @@ class CodeChecker(SubgoalCompletion):
         for e in kept:
             self._known[key_of(specs[e.id])] = known_from(measured.get(e.id, e), points[e.id], t,
                                                           tracked.get(e.id, 0.0), turns.get(e.owner[0]))
+
+    def holding(self, obs: Observation) -> bool:
+        """Whether the robot holds one of the watched objects now (:func:`~code_as_monitor.agent.rest.in_hand`), from
+        where the tracker last had the elements (fresh ones only): asked when a subgoal ended in failure."""
+        if self._last is None:
+            return False
+        _, points, stale, _, _ = self._last
+        owners = {e.id: e.owner[0] for e in self._elements}
+        return in_hand(obs.robot, {i: p for i, p in points.items() if i not in stale}, owners)
 
     def close(self) -> None:
         return None

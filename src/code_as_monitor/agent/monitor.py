@@ -208,7 +208,9 @@ class Monitor:
                 else DecisionKind.HALT if end.outcome == "violated" else DecisionKind.SUBGOAL_FAILED)
         if self._state == "over":
             return self._over(obs.t, halt=end.halt, ended=record)
-        if end.outcome != "success" and self.rest.enabled:
+        if end.outcome != "success" and self.rest.enabled and self._holding(obs):
+            self.emit("rest", t=obs.t, waited_s=0.0, at_rest=False, skipped="an object is in hand")
+        elif end.outcome != "success" and self.rest.enabled:
             self._state = "rest"
             self._subgoal = None
             self._rest_t0, self._rest_prev, self._rest_still = obs.t, self.rest.depths(obs), 0
@@ -248,6 +250,12 @@ class Monitor:
         if missing:
             raise ObservationError(f"observation at t={obs.t} has no view {missing[0]!r}; it has {sorted(obs.views)}")
         return replace(obs, views={c: obs.views[c] for c in self.cameras})
+
+    def _holding(self, obs: Observation) -> bool:
+        """Whether the checker sees the robot holding an object (then the re-plan does not wait: see
+        :mod:`~code_as_monitor.agent.rest`); a checker that cannot tell says no."""
+        holding = getattr(self.checker, "holding", None)
+        return bool(holding(obs)) if callable(holding) else False
 
     def _rest_step(self, obs: Observation) -> Decision:
         """A frame while waiting for the scene to come to rest: re-plan on it once it is (or at ``max_s``)."""

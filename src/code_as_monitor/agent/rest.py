@@ -10,6 +10,10 @@ a row in which, in every view, at most ``moved_frac`` of the pixels changed dept
 metres (and the ``min_moved`` pixel floor: sensor noise flickers single pixels). The wait ends at
 ``max_s`` seconds in any case (a conveyor, a person walking by: the scene may never rest).
 
+Not while the robot holds something (:func:`in_hand`): a halted hand keeps what it holds as it is, and waiting
+can only let that get worse (a teapot halted tipped forward: its tea runs into the spout while the monitor
+waits for it to stop moving); the monitor then re-plans at once, as without the wait.
+
 Perception only: the depth images the monitor already receives, no element, tracker or simulator pose.
 """
 
@@ -21,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from code_as_monitor.core.errors import ConfigError
-from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.observation import Observation, RobotState
 
 
 @dataclass(frozen=True)
@@ -91,4 +95,27 @@ class RestWait:
 
 NO_WAIT = RestWait(max_s=0.0)
 
-__all__ = ["NO_WAIT", "RestWait"]
+HOLD_DIST = 0.05
+"""Metres: an object's element this close to the closed gripper's (or active suction cup's) tip is in hand (the
+knowledge base's loosest "still attached" distance)."""
+
+
+def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: dict[int, str],
+            hold_dist: float = HOLD_DIST) -> bool:
+    """Whether the robot holds an object: its gripper is closed (suction on) and the centroid of some element of
+    an object other than the robot lies within ``hold_dist`` of the end effector's tip (``ee_points["tip"]``, else
+    the ``ee_pose`` origin). ``positions``: element id -> (k, 3) world points (fresh ones only); ``owners``:
+    element id -> the object it belongs to."""
+    if robot is None or robot.gripper < 0.5:
+        return False
+    tip = np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=float).reshape(3)
+    for i, pts in positions.items():
+        if owners.get(i, "robot") == "robot" or pts is None:
+            continue
+        c = np.asarray(pts, dtype=float).reshape(-1, 3).mean(axis=0)
+        if np.all(np.isfinite(c)) and float(np.linalg.norm(c - tip)) <= hold_dist:
+            return True
+    return False
+
+
+__all__ = ["HOLD_DIST", "NO_WAIT", "RestWait", "in_hand"]
