@@ -163,3 +163,42 @@ def test_a_failure_with_an_object_in_hand_is_replanned_at_once() -> None:
     halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
     assert halt.action is not None and halt.subgoal.text == "again"
     assert [f.get("skipped") for k, f in events if k == "rest"] == ["an object is in hand"]
+
+
+def test_in_hand_over_time_needs_the_element_to_have_moved_with_the_tip() -> None:
+    """Near the tip is not enough once the hand has travelled: the opening the fingers lower a pen into is near the
+    tip but stayed put; the handle of a carried pot moved with it."""
+    from code_as_monitor.agent.rest import in_hand
+    from code_as_monitor.core.observation import RobotState
+
+    tip_now, tip_then = np.array([0.4, 0.0, 0.25]), np.array([0.4, 0.1, 0.35])  # 14 cm of travel in the window
+    robot = RobotState(np.eye(4), gripper=1.0, ee_kind="gripper", ee_points={"tip": tip_now})
+    owners = {1: "pen_holder", 2: "teapot"}
+    rim_now = np.array([[0.41, 0.0, 0.22]])
+    assert not in_hand(robot, {1: rim_now}, owners, before=(tip_then, {1: rim_now[0]}))
+    handle_then, handle_now = np.array([0.41, 0.11, 0.36]), np.array([[0.41, 0.01, 0.26]])
+    assert in_hand(robot, {2: handle_now}, owners, before=(tip_then, {2: handle_then}))
+    assert in_hand(robot, {1: rim_now}, owners, before=(tip_now + 0.005, {1: rim_now[0]})), "a hand at rest: nearness"
+    assert not in_hand(robot, {2: handle_now}, owners, before=(tip_then, {})), "not seen a second ago: not judged held"
+
+
+class SinkingWorld(FallingWorld):
+    """An object whose depth grows 3 mm per 0.1 s from ``t_drop`` to ``t_rest``: under the 5 mm tolerance frame to
+    frame, over it across a streak."""
+
+    def observe(self) -> Observation:
+        d = _depth(None)["front"]
+        end = self.t if self.t_rest is None else min(self.t, self.t_rest)
+        d[20:30, 20:30] = 0.9 + 0.03 * max(0.0, end - self.t_drop)
+        return Observation(t=self.t, views={"front": View(np.zeros((H, W, 3), np.uint8), d, CAM)}, objects=["block"])
+
+
+def test_a_slow_slide_is_not_taken_for_rest() -> None:
+    w = SinkingWorld(t_drop=0.3, t_rest=1.2)
+    decisions, events, _ = _run(w, RestWait(max_s=3.0))
+    halt = next(d for d in decisions if d.kind is DecisionKind.HALT)
+    restart = next(d for d in decisions if d.t > halt.t and d.action is not None)
+    # frame to frame (3 mm each) it would have looked still from 0.5 s on; against the streak's first frame the
+    # re-plan waits for the slide to end (the last 3 mm of it within the tolerance)
+    assert 1.2 - 1e-6 <= restart.t <= 1.5, (halt.t, restart.t)
+    assert [f["at_rest"] for k, f in events if k == "rest"] == [True]

@@ -16,6 +16,7 @@ A check that reads a stale element (lost by the tracker) gets no verdict that fr
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -25,7 +26,7 @@ import numpy as np
 from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
-from code_as_monitor.agent.rest import in_hand
+from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand, tip_of
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
@@ -70,6 +71,7 @@ class CodeChecker(SubgoalCompletion):
         self._tracked: dict[int, float] = {}  # element id -> least tracker support since its last measurement
         self._elements: list[Element] = []
         self._painted: Any = None
+        self._tips: deque[tuple[float, np.ndarray, dict[int, np.ndarray]]] = deque(maxlen=64)  # (t, tip, centroids)
 
     def start_episode(self, obs: Observation) -> None:
         self._known.clear()
@@ -130,7 +132,8 @@ class CodeChecker(SubgoalCompletion):
             return False
         _, points, stale, _, _ = self._last
         owners = {e.id: e.owner[0] for e in self._elements}
-        return in_hand(obs.robot, {i: p for i, p in points.items() if i not in stale}, owners)
+        before = next(((tip, c) for t, tip, c in self._tips if t >= obs.t - HOLD_WINDOW_S - 1e-9), None)
+        return in_hand(obs.robot, {i: p for i, p in points.items() if i not in stale}, owners, before)
 
     def close(self) -> None:
         return None
@@ -165,6 +168,7 @@ class CodeChecker(SubgoalCompletion):
         # A paint is a measurement; a carried element starts from its tracker's weakest frame.
         self._tracked = {e.id: (e.support.tracked if e.support is not None else math.inf) for e in elements}
         self._last = (obs.t, positions, set(), dict(self._tracked), {})
+        self._tips.clear()
         history = self.history_factory(self.cfg.history_len)
         history.push(obs.t, positions)
 
@@ -290,6 +294,10 @@ class CodeChecker(SubgoalCompletion):
         stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
         self._fold_support(tr, stale_ids)
         self._last = (obs.t, dict(tr.points), stale_ids, dict(self._tracked), {})
+        tip = tip_of(obs.robot)
+        if tip is not None:  # where the tip and the fresh elements were, for holding()
+            self._tips.append((obs.t, tip, {i: np.asarray(p, float).reshape(-1, 3).mean(axis=0)
+                                            for i, p in tr.points.items() if i not in stale_ids}))
         H, ht = self._history.arrays()
         verdicts = self.runtime.step(tr.points, H, ht, obs.t)
         for v in verdicts:

@@ -116,7 +116,8 @@ class Monitor:
         self.episode = EpisodeLog("")
         self._state = "idle"  # idle -> plan -> run -> (rest ->) plan -> ... -> over
         self._rest_t0 = self._rest_next = 0.0
-        self._rest_prev: dict[str, np.ndarray] | None = None  # view -> depth of the last rest frame
+        # view -> depth at the start of the current still streak: a slow slide adds up against it
+        self._rest_ref: dict[str, np.ndarray] | None = None
         self._rest_still = 0
         self._frame_alarms: list[Alarm] = []
         self._subgoal: Subgoal | None = None
@@ -213,7 +214,7 @@ class Monitor:
         elif end.outcome != "success" and self.rest.enabled:
             self._state = "rest"
             self._subgoal = None
-            self._rest_t0, self._rest_prev, self._rest_still = obs.t, self.rest.depths(obs), 0
+            self._rest_t0, self._rest_ref, self._rest_still = obs.t, self.rest.depths(obs), 0
             self._rest_next = obs.t + self.rest.period_s
             return Decision(kind, obs.t, halt=end.halt, violations=list(self._frame_alarms), ended=record,
                             reason=record.reason)
@@ -262,14 +263,17 @@ class Monitor:
         if obs.t + 1e-9 < self._rest_next:
             return Decision(DecisionKind.CONTINUE, obs.t)
         self._rest_next = obs.t + self.rest.period_s
-        prev, self._rest_prev = self._rest_prev, self.rest.depths(obs)
-        self._rest_still = self._rest_still + 1 if prev is not None and self.rest.still(prev, self._rest_prev) else 0
+        now = self.rest.depths(obs)
+        if self._rest_ref is not None and self.rest.still(self._rest_ref, now):
+            self._rest_still += 1
+        else:
+            self._rest_ref, self._rest_still = now, 0
         waited = obs.t - self._rest_t0
         at_rest = self._rest_still >= self.rest.still_frames
         if not at_rest and waited + 1e-9 < self.rest.max_s:
             return Decision(DecisionKind.CONTINUE, obs.t)
         self.emit("rest", t=obs.t, waited_s=round(waited, 4), at_rest=at_rest)
-        self._rest_prev = None
+        self._rest_ref = None
         self._state = "plan"
         return self._plan(obs, DecisionKind.START, halt=False, ended=None)
 

@@ -4,10 +4,11 @@ After a halt or a failed subgoal the world may still be moving: a dropped pen is
 pushed block still sliding. A subgoal planned on that frame aims at where the object was, and its own
 "stays where it lies" checks then fire on the object's remaining motion (slot-pen: 2-4 ``steady_pen`` alarms
 within 0.5 s of every drop, their open-loop continuations often fine). The robot is halted, so what still
-changes in the depth images is the scene. :class:`RestWait` says when it has stopped changing: every
-monitored frame is compared with the one before, and the scene is at rest after ``still_frames`` frames in
-a row in which, in every view, at most ``moved_frac`` of the pixels changed depth by more than ``depth_tol``
-metres (and the ``min_moved`` pixel floor: sensor noise flickers single pixels). The wait ends at
+changes in the depth images is the scene. :class:`RestWait` says when it has stopped changing: the scene is at
+rest after ``still_frames`` monitored frames in a row each of which, in every view, differs from the frame that began
+the streak on at most ``moved_frac`` of the pixels by more than ``depth_tol`` metres (and the ``min_moved`` pixel
+floor: sensor noise flickers single pixels); a frame that differs more begins a new streak. Against the streak's first
+frame, not the previous one: a slow slide (3 cm/s is 3 mm a frame at 10 Hz) adds up. The wait ends at
 ``max_s`` seconds in any case (a conveyor, a person walking by: the scene may never rest).
 
 Not while the robot holds something (:func:`in_hand`): a halted hand keeps what it holds as it is, and waiting
@@ -96,26 +97,60 @@ class RestWait:
 NO_WAIT = RestWait(max_s=0.0)
 
 HOLD_DIST = 0.05
-"""Metres: an object's element this close to the closed gripper's (or active suction cup's) tip is in hand (the
+"""Metres: an object's element this close to the closed gripper's (or active suction cup's) tip may be in hand (the
 knowledge base's loosest "still attached" distance)."""
+HOLD_WINDOW_S = 1.0
+"""Seconds of judged frames over which a held element must have moved with the tip."""
+MIN_TRAVEL = 0.02
+"""Metres: a tip that travelled less over the window tells nothing; nearness alone decides."""
 
 
 def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: dict[int, str],
-            hold_dist: float = HOLD_DIST) -> bool:
-    """Whether the robot holds an object: its gripper is closed (suction on) and the centroid of some element of
-    an object other than the robot lies within ``hold_dist`` of the end effector's tip (``ee_points["tip"]``, else
-    the ``ee_pose`` origin). ``positions``: element id -> (k, 3) world points (fresh ones only); ``owners``:
-    element id -> the object it belongs to."""
+            before: tuple[np.ndarray, dict[int, np.ndarray]] | None = None, hold_dist: float = HOLD_DIST) -> bool:
+    """Whether the robot holds an object: its gripper is closed (suction on), the centroid of some element of an
+    object other than the robot lies within ``hold_dist`` of the end effector's tip (``ee_points["tip"]``, else the
+    ``ee_pose`` origin), and, when the tip travelled at least :data:`MIN_TRAVEL` since ``before``, that element moved
+    with it (its displacement within half the tip's of the tip's): a holder the fingers hover over is near the tip
+    but stays where it is.
+
+    Args:
+        robot: the robot's state now.
+        positions: element id -> (k, 3) world points now (fresh ones only).
+        owners: element id -> the object it belongs to.
+        before: (tip (3,), element id -> centroid (3,)) at an earlier judged frame (about a second ago), or None.
+    """
     if robot is None or robot.gripper < 0.5:
         return False
-    tip = np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=float).reshape(3)
+    tip = _tip(robot)
+    near: dict[int, np.ndarray] = {}
     for i, pts in positions.items():
         if owners.get(i, "robot") == "robot" or pts is None:
             continue
         c = np.asarray(pts, dtype=float).reshape(-1, 3).mean(axis=0)
         if np.all(np.isfinite(c)) and float(np.linalg.norm(c - tip)) <= hold_dist:
+            near[i] = c
+    if not near:
+        return False
+    if before is None:
+        return True
+    tip0, cents0 = before
+    travel = tip - np.asarray(tip0, dtype=float)
+    if float(np.linalg.norm(travel)) < MIN_TRAVEL:
+        return True
+    for i, c in near.items():
+        c0 = cents0.get(i)
+        if c0 is not None and float(np.linalg.norm((c - c0) - travel)) <= 0.5 * float(np.linalg.norm(travel)):
             return True
     return False
 
 
-__all__ = ["HOLD_DIST", "NO_WAIT", "RestWait", "in_hand"]
+def _tip(robot: RobotState) -> np.ndarray:
+    return np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=float).reshape(3)
+
+
+def tip_of(robot: RobotState | None) -> np.ndarray | None:
+    """(3,) the end effector's tip in the world, or None without a robot state."""
+    return None if robot is None else _tip(robot)
+
+
+__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NO_WAIT", "RestWait", "in_hand", "tip_of"]
