@@ -32,8 +32,11 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ROBOT = "robot"
-HELD_RADIUS = 0.015
-"""Metres: with the gripper closed, an object with a point this near the tool tip is held (it hides as the robot)."""
+HELD_RADIUS = 0.025
+"""Metres: with the gripper closed, an object with a visible point this near the tool tip is held (it hides as the
+robot). The fingers cover the object around the grasp point: at the subgoal starts of stow-book episode 952385804 the
+held book's nearest visible point was 0.8-1.6 cm from the tip; at 1.5 cm the 1.6 cm start was not counted as held, the
+upright book's spine seen end-on was not carried over, and the stow read it 85 degrees off (RESULTS, 2026-11-28)."""
 HELD_SIZE = 0.3
 """Metres: a held object lies within this of the tip (95 % of its points): the table the tip touches is not held."""
 
