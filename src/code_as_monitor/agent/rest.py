@@ -20,12 +20,11 @@ Perception only: the depth images the monitor already receives, no element, trac
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from code_as_monitor.core.errors import ConfigError
+from code_as_monitor.core.checks import check_count, check_range
 from code_as_monitor.core.observation import Observation, RobotState
 
 
@@ -50,18 +49,11 @@ class RestWait:
     min_moved: int = 8
 
     def __post_init__(self) -> None:
-        for name in ("max_s", "period_s", "depth_tol", "moved_frac"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ConfigError(f"RestWait.{name} must be a finite number >= 0, got {v!r}")
-        if self.period_s <= 0:
-            raise ConfigError(f"RestWait.period_s must be > 0, got {self.period_s!r}")
-        for name in ("still_frames", "min_moved"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise ConfigError(f"RestWait.{name} must be an integer >= 0, got {v!r}")
-        if self.still_frames < 1:
-            raise ConfigError(f"RestWait.still_frames must be >= 1, got {self.still_frames!r}")
+        for name in ("max_s", "depth_tol", "moved_frac"):
+            check_range("RestWait", name, getattr(self, name), 0.0, None)
+        check_range("RestWait", "period_s", self.period_s, 0.0, None, lo_open=True)
+        check_count("RestWait", "still_frames", self.still_frames, 1)
+        check_count("RestWait", "min_moved", self.min_moved, 0)
 
     @property
     def enabled(self) -> bool:
