@@ -22,8 +22,9 @@ centre), line direction and surface normal error median / max (degrees), line ax
 element, which is not scored against the part); then per task and element; then overall per view set; the
 worst point-like errors from two views (which element, scene and views); the centred pairs' horizontal offsets;
 whether the painter knows which elements are off (large errors it flagged weak or gave a matching uncertainty, and
-the errors of the elements it calls sound); and machine-readable ``name: value unit`` lines for the two-view targets (points median <= 3 mm and max
-<= 8 mm, directions <= 2 degrees, centred pairs <= 5 mm) and for the front view alone.
+the errors of the elements it calls sound); and machine-readable ``name: value unit`` lines for the two-view
+targets (points median <= 3 mm and max <= 8 mm, directions <= 2 degrees, centred pairs <= 5 mm) and for the front
+view alone.
 
 Run: ``nice -n 10 .venv/bin/python benchmarks/element_accuracy.py [--seeds 5] [--every 2.0] [--tasks ...]``.
 """
