@@ -26,7 +26,7 @@ import numpy as np
 from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
-from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand, tip_of
+from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
@@ -71,7 +71,8 @@ class CodeChecker(SubgoalCompletion):
         self._tracked: dict[int, float] = {}  # element id -> least tracker support since its last measurement
         self._elements: list[Element] = []
         self._painted: Any = None
-        self._tips: deque[tuple[float, np.ndarray, dict[int, np.ndarray]]] = deque(maxlen=64)  # (t, tip, centroids)
+        # (t, tip (3,), stale ids) of each judged frame: the element positions of that frame are in the history
+        self._tips: deque[tuple[float, np.ndarray, set[int]]] = deque(maxlen=64)
 
     def start_episode(self, obs: Observation) -> None:
         self._known.clear()
@@ -132,8 +133,20 @@ class CodeChecker(SubgoalCompletion):
             return False
         _, points, stale, _, _ = self._last
         owners = {e.id: e.owner[0] for e in self._elements}
-        before = next(((tip, c) for t, tip, c in self._tips if t >= obs.t - HOLD_WINDOW_S - 1e-9), None)
-        return in_hand(obs.robot, {i: p for i, p in points.items() if i not in stale}, owners, before)
+        return in_hand(obs.robot, {i: p for i, p in points.items() if i not in stale}, owners, self._before(obs.t))
+
+    def _before(self, t: float) -> tuple[np.ndarray, dict[int, np.ndarray]] | None:
+        """(tip, element id -> centroid of its fresh points) at the first judged frame of the last
+        ``HOLD_WINDOW_S`` seconds before ``t``, the positions read from the element history; None if none."""
+        frame = next(((ft, tip, st) for ft, tip, st in self._tips if ft >= t - HOLD_WINDOW_S - 1e-9), None)
+        if frame is None:
+            return None
+        ft, tip, stale = frame
+        H, ht = self._history.arrays(copy=False)
+        j = int(np.searchsorted(ht, ft))  # the judged frame's push (a re-measurement may follow at the same t)
+        if j >= len(ht) or ht[j] != ft:
+            return None
+        return tip, {i: H[i][j].mean(axis=0) for i in H if i not in stale}
 
     def close(self) -> None:
         return None
@@ -294,10 +307,8 @@ class CodeChecker(SubgoalCompletion):
         stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
         self._fold_support(tr, stale_ids)
         self._last = (obs.t, dict(tr.points), stale_ids, dict(self._tracked), {})
-        tip = tip_of(obs.robot)
-        if tip is not None:  # where the tip and the fresh elements were, for holding()
-            self._tips.append((obs.t, tip, {i: np.asarray(p, float).reshape(-1, 3).mean(axis=0)
-                                            for i, p in tr.points.items() if i not in stale_ids}))
+        if obs.robot is not None:  # where the tip was and which elements were fresh, for holding()
+            self._tips.append((obs.t, obs.robot.tip, stale_ids))
         H, ht = self._history.arrays()
         verdicts = self.runtime.step(tr.points, H, ht, obs.t)
         for v in verdicts:

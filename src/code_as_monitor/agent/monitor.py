@@ -209,9 +209,10 @@ class Monitor:
                 else DecisionKind.HALT if end.outcome == "violated" else DecisionKind.SUBGOAL_FAILED)
         if self._state == "over":
             return self._over(obs.t, halt=end.halt, ended=record)
-        if end.outcome != "success" and self.rest.enabled and self._holding(obs):
+        wait = end.outcome != "success" and self.rest.enabled
+        if wait and self._holding(obs):
             self.emit("rest", t=obs.t, waited_s=0.0, at_rest=False, skipped="an object is in hand")
-        elif end.outcome != "success" and self.rest.enabled:
+        elif wait:
             self._state = "rest"
             self._subgoal = None
             self._rest_t0, self._rest_ref, self._rest_still = obs.t, self.rest.depths(obs), 0

@@ -113,7 +113,7 @@ def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: 
     """
     if robot is None or robot.gripper < 0.5:
         return False
-    tip = _tip(robot)
+    tip = robot.tip
     near: dict[int, np.ndarray] = {}
     for i, pts in positions.items():
         if owners.get(i, "robot") == "robot" or pts is None:
@@ -136,13 +136,4 @@ def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: 
     return False
 
 
-def _tip(robot: RobotState) -> np.ndarray:
-    return np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=float).reshape(3)
-
-
-def tip_of(robot: RobotState | None) -> np.ndarray | None:
-    """(3,) the end effector's tip in the world, or None without a robot state."""
-    return None if robot is None else _tip(robot)
-
-
-__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NO_WAIT", "RestWait", "in_hand", "tip_of"]
+__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NO_WAIT", "RestWait", "in_hand"]

@@ -31,7 +31,11 @@ class SubgoalEnd:
 
 
 class SubgoalChecker(Protocol):
-    """The per-subgoal part of a method (Code-as-Monitor's, or a baseline's)."""
+    """The per-subgoal part of a method (Code-as-Monitor's, or a baseline's).
+
+    Optional: ``holding(obs) -> bool``, whether the robot holds one of the watched objects when a subgoal ends in
+    failure (the monitor then re-plans without waiting for the scene to rest); a checker without it is taken to say
+    no."""
 
     def start_episode(self, obs: Observation) -> None:
         """Called with the episode's first observation (the one the first subgoal is planned on)."""

@@ -85,6 +85,11 @@ class RobotState:
     ee_points: dict[str, np.ndarray] = field(default_factory=dict)
     joints: np.ndarray | None = None
 
+    @property
+    def tip(self) -> np.ndarray:
+        """(3,) float64 world metres: the end effector's ``"tip"`` point, else the ``ee_pose`` origin."""
+        return np.asarray(self.ee_points.get("tip", self.ee_pose[:3, 3]), dtype=np.float64).reshape(3)
+
 
 @dataclass
 class Observation:

@@ -197,7 +197,7 @@ class Painter:
         robot = obs.robot
         if robot is None or robot.gripper < 0.5 or not obs.objects:
             return []
-        tip = np.asarray(robot.ee_points.get("tip", robot.ee_pose[:3, 3]), dtype=np.float64).reshape(3)
+        tip = robot.tip
         held = []
         for name in obs.objects:
             if name == ROBOT:
