@@ -207,10 +207,11 @@ def _place_state(x_xyz, tip_xyz, target_xyz=(0.5, 0.0, 0.02)):
     return {("robot", "tip"): tip_xyz, ("green_block", ""): x_xyz, ("red_block", ""): target_xyz}
 
 
-def test_place_program_verdicts(make_elements, run_program):
+def test_place_program_verdicts(make_elements, run_program, history_of):
     gen, coder = gen_coder()
     objs = infer_objects(STACK)
     sg = _subgoal(gen, objs, 1)
+    carried = make_elements(sg, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.165]))
     upon = ("centred_green_block_on_red_block", "resting_green_block_on_red_block", "released_green_block")
     src, els = program_for(coder, sg, make_elements, _place_state([0.4, 0.1, 0.14], [0.4, 0.1, 0.16]))
     v = run_program(src, els)
@@ -224,12 +225,18 @@ def test_place_program_verdicts(make_elements, run_program):
     v = run_program(src, make_elements(sg, _place_state([0.4, 0.1, 0.02], [0.4, 0.1, 0.16])))
     ok, reason, margin = v["attached_green_block"]
     assert ok is False and margin < 0 and classify(reason) == "dropped"
-    # placed and released, centred: every upon constraint holds
-    v = run_program(src, make_elements(sg, _place_state([0.505, 0.0, 0.06], [0.5, 0.0, 0.15])))
+    # placed and released (the tip came within 2.5 cm of it while carrying it), centred: every upon constraint holds
+    placed = make_elements(sg, _place_state([0.505, 0.0, 0.06], [0.5, 0.0, 0.15]))
+    v = run_program(src, placed, history_of(carried, placed))
     assert v["attached_green_block"][0] is True
     assert all(v[k][0] is True and v[k][2] > 0 for k in upon)
+    # the same frame without the carried one in the history: the tip never came closer, so it may still hold it
+    # (a block the cup took at the edge of its side face hangs that far from the tip)
+    v = run_program(src, placed)
+    assert v["released_green_block"][0] is False and classify(v["released_green_block"][1]) == "still_held"
     # placed 2.5 cm off centre: proactive failure, recovered by re-picking
-    v = run_program(src, make_elements(sg, _place_state([0.525, 0.0, 0.06], [0.52, 0.0, 0.15])))
+    off = make_elements(sg, _place_state([0.525, 0.0, 0.06], [0.52, 0.0, 0.15]))
+    v = run_program(src, off, history_of(carried, off))
     ok, reason, margin = v["centred_green_block_on_red_block"]
     assert ok is False and margin < 0 and classify(reason) == "offset"
     assert v["resting_green_block_on_red_block"][0] is True and v["released_green_block"][0] is True

@@ -8,7 +8,10 @@ below -> done. Elements: the suction cup's tip (``robot/tip``) and each block as
 
 Recovery (by the category of the feedback, :func:`~code_as_monitor.vlm.kb.shared.feedback.classify`):
 collapse -> restart from the lowest tower level named in the feedback; offset -> pick the misplaced block
-again and re-place it; dropped -> pick it again; anything else after a placement -> place again.
+again and re-place it; dropped -> pick it again; taken (the cup holds another block instead: a collapse left it
+lying on the block to pick) -> put that one down on free table, then pick again; anything else after a placement
+-> place again. A pick after a failure or a set-down names the other blocks in its held check, so that its reason
+can say which one was taken.
 
 Thresholds are the paper's "manually initialized thresholds for common tasks in an external knowledge base"
 (supplementary, failure threshold selection): physical tolerances from the task geometry (block edge about
@@ -53,7 +56,8 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # place_on, upon: the block sits one block size above the target's centre ...
     "resting": {"min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
     # ... and the cup has let go (the tip is further from the block centre than at contact).
-    "released": {"release_dist": 0.04},
+    "released": {"release_dist": 0.04,
+                 "min_gain": 0.01},  # ... and moved away from it: 1 cm beyond its closest in the history
     # place_on, during: lower levels of the tower stay stacked (reactive collapse detection).
     "tower": {"max_offset": 0.025, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
 }
@@ -64,7 +68,7 @@ def _thr(kind: str) -> dict[str, float]:
 
 
 # --- constraint builders -----------------------------------------------------------------------------------
-def pick(obj: str, tower_below: Sequence[tuple[str, str]] = ()) -> list[dict[str, Any]]:
+def pick(obj: str, tower_below: Sequence[tuple[str, str]] = (), others: Sequence[str] = ()) -> list[dict[str, Any]]:
     """``pick``: upon, the block is held: on the suction cup and risen with it since the pick began; during, the
     levels already stacked stay stacked (a cup reaching for a block that lies against the tower can knock a level
     off, or lift it instead of its target).
@@ -72,8 +76,11 @@ def pick(obj: str, tower_below: Sequence[tuple[str, str]] = ()) -> list[dict[str
     Args:
         obj: the block to pick.
         tower_below: (upper, lower) pairs already stacked that must stay stacked.
+        others: blocks the cup may take instead (a collapse can leave one lying on ``obj``); the held check's
+            reason names one that was taken. Only read when ``obj`` is not held.
     """
-    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup"), *_tower_intact(tower_below)]
+    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup", others=[whole(o) for o in others]),
+            *_tower_intact(tower_below)]
 
 
 def _tower_intact(pairs: Sequence[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -193,14 +200,19 @@ def resting(c: Spec) -> str:
 
 
 def released(c: Spec) -> str:
+    """Released: the tip is ``release_dist`` from the block and has moved ``min_gain`` further from it than it
+    came in the history (a block the cup took at the edge of a side face hangs 4.4 cm from the tip while on it;
+    a block never near the cup is released once the tip moved away from it)."""
     tip, x = c["element_ids"][:2]
     th, xn = c["thresholds"], obj_name(c, 1)
-    rd = num(th["release_dist"])
+    rd, gain = num(th["release_dist"]), num(th["min_gain"])
     body = f"""
     d = distance(E[{tip}], E[{x}])
-    if d >= {rd}:
-        return True, {lit(xn + " is released (the tip is %.3f m away)")} % d, d - {rd}
-    return False, {lit(xn + " is still held by the suction cup (the tip is %.3f m from its centre)")} % d, d - {rd}
+    gap = d - np.min(np.linalg.norm(H[{x}].mean(axis=1) - H[{tip}].mean(axis=1), axis=1))
+    margin = np.min([d - {rd}, gap - {gain}])
+    if d >= {rd} and gap >= {gain}:
+        return True, {lit(xn + " is released (the tip is %.3f m away)")} % d, margin
+    return False, {lit(xn + " is still held by the suction cup (the tip is %.3f m from its centre and %.3f m further than it came)")} % (d, gap), margin
 """
     return check_fn(c, body)
 
@@ -226,9 +238,12 @@ def _below(task: StackGoal, level: int) -> list[tuple[str, str]]:
     return [(task.tower[i], task.tower[i - 1]) for i in range(1, level)]
 
 
-def _pick(task: StackGoal, level: int, why: str) -> dict[str, Any]:
+def _pick(task: StackGoal, level: int, why: str, again: bool = True) -> dict[str, Any]:
+    """Pick tower level ``level``. ``again``: after a failure or a set-down the scene may be disturbed, so the
+    held check also asks which other block was taken if this one is not held (not on the undisturbed path)."""
     obj = task.tower[level]
-    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, pick(obj, _below(task, level)), why)
+    others = [o for o in task.tower if o != obj] if again else []
+    return answer(f"pick up {nice(obj)}", "pick", {"obj": obj}, pick(obj, _below(task, level), others), why)
 
 
 def _place(task: StackGoal, level: int, why: str) -> dict[str, Any]:
@@ -274,7 +289,8 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
     if not previous or skill not in ("pick", "place_on") or obj not in tower[1:]:
         if previous and previous.get("done"):
             return done("the tower is complete")
-        return _pick(task, 1, f"{tower[0]} is the base and stays on the table; the next level is {tower[1]}")
+        return _pick(task, 1, f"{tower[0]} is the base and stays on the table; the next level is {tower[1]}",
+                     again=previous is not None)
     level = tower.index(obj)
     cat = classify(feedback)
     if cat == "collapse":
@@ -289,6 +305,11 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
                                        f"{tower[level - 1]}")
         return _pick(task, lowest, f"the tower was disturbed; restart from the lowest level that may be missing, "
                                    f"{tower[lowest]} (level {lowest})")
+    if cat == "taken":  # the cup holds another block: put that down on free table, then pick this level again
+        taken = [n for n in mentioned(feedback, tower) if n != obj]
+        if taken:
+            return _set_down(task, taken[0], level, f"the suction cup took {taken[0]} instead of {obj} (it may have "
+                                                    f"lain on {obj}); put it aside, then pick {obj} again")
     if skill == "pick":
         if cat == "success":
             return _place(task, level, f"{obj} is held; put it on {tower[level - 1]}")
@@ -297,7 +318,7 @@ def next_stack(task: StackGoal, previous: dict[str, Any] | None, feedback: str |
     if cat == "success":
         if level == len(tower) - 1:
             return done("every block is stacked in order")
-        return _pick(task, level + 1, f"{obj} is placed; the next level is {tower[level + 1]}")
+        return _pick(task, level + 1, f"{obj} is placed; the next level is {tower[level + 1]}", again=False)
     if cat == "offset":
         return _pick(task, level, f"{obj} is off-centre, so the next block would topple the tower; pick it "
                                   f"again and re-place it")

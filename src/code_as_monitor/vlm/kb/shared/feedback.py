@@ -7,6 +7,8 @@ recognises its own reason phrasing and common paraphrases by keywords, checked i
 =========== ===================================================== =========================================
 category    keywords                                              recovery (stacking)
 =========== ===================================================== =========================================
+taken       instead of (another object was taken: "holds Y        put Y down on free table, then pick the
+            instead of X")                                        block again
 collapse    collapsed, moved, disturbed, no longer on, fell off,   restart from the lowest tower level named
             knocked                                               in the feedback (at least level 1)
 offset      offset, off-centre/center, misaligned, not centred    pick the misplaced block again, re-place it
@@ -32,6 +34,7 @@ __all__ = ["CATEGORIES", "SUCCESS_FEEDBACK", "classify", "failed_kind", "mention
 _SUCCESS_RE = re.compile(r"^\s*(success|succeeded|ok|done|completed?|subgoal (succeeded|completed?))\b", re.I)
 
 CATEGORIES: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("taken", ("instead of",)),
     ("collapse", ("collapsed", "collapse", "moved", "disturbed", "no longer on", "fell off", "knocked")),
     ("offset", ("offset", "off-centre", "off-center", "off centre", "off center", "misaligned", "not centred")),
     ("still_held", ("still held", "not released")),
