@@ -42,6 +42,35 @@ def test_still_ignores_noise_and_missing_readings_and_sees_a_moving_object() -> 
     assert rest.still(a, {"side": np.zeros((H, W), np.float32)}), "a view absent before is not compared"
 
 
+@pytest.mark.parametrize("sigma", [0.0015, 0.002, 0.004])
+def test_a_noisy_depth_camera_raises_the_tolerance_and_still_sees_motion(sigma: float) -> None:
+    """Independent Gaussian depth noise in both frames of a static 320x240 view: at a fixed 5 mm tolerance 1.5 mm
+    of it already moves more than the allowance; the tolerance estimated from the frames holds it still, and a
+    block 4 cm proud of the table that slid 3 px is still seen (its edges change depth by 4 cm: above 5 x the
+    difference's noise up to about 5.6 mm of noise)."""
+    rng = np.random.default_rng(1)
+    h, w = 240, 320
+
+    def frame(col: int) -> dict[str, np.ndarray]:
+        d = np.full((h, w), 1.0, np.float32)
+        d[100:125, col:col + 25] = 0.96
+        return {"front": d + rng.normal(0, sigma, (h, w)).astype(np.float32)}
+
+    a = frame(100)
+    fixed = RestWait(noise_k=0.0)
+    assert not fixed.still(a, frame(100)), "at a fixed 5 mm the noise alone reads as motion"
+    rest = RestWait()
+    assert rest.still(a, frame(100))
+    assert not rest.still(a, frame(103)), "a block 4 cm proud of the table slid 3 px"
+    diff = np.abs(frame(100)["front"] - a["front"]).ravel()
+    assert rest.tolerance(diff) == pytest.approx(5 * np.sqrt(2) * sigma, rel=0.1)
+
+
+def test_noise_free_depth_keeps_the_tolerance() -> None:
+    a, b = _depth(10)["front"], _depth(13)["front"]
+    assert RestWait().tolerance(np.abs(b - a).ravel()) == RestWait().depth_tol
+
+
 class FallingWorld(World):
     """The fake loop's world with one depth view: after ``t_fall`` an object slides 2 px per 0.1 s until ``t_rest``
     (``None``: it never stops)."""
@@ -117,6 +146,7 @@ def test_frames_while_waiting_are_due_once_per_period() -> None:
 @pytest.mark.parametrize(("field", "value", "match"), [
     ("rest_max_s", -1.0, "rest_max_s"), ("rest_still_frames", 0, "rest_still_frames"),
     ("rest_depth_tol", 0.0, "rest_depth_tol"), ("rest_max_s", float("nan"), "rest_max_s"),
+    ("rest_noise_k", -1.0, "rest_noise_k"),
 ])
 def test_bad_rest_settings_name_the_field(field: str, value: float, match: str) -> None:
     with pytest.raises(ConfigError, match=match):

@@ -51,6 +51,8 @@ class AgentConfig:
             0: re-plan on the failing frame.
         rest_still_frames: consecutive monitored frames without motion that count as at rest.
         rest_depth_tol: metres of depth change above which a pixel counts as moved.
+        rest_noise_k: that tolerance rises to this many times the depth noise estimated from the compared frames
+            (a noisy depth camera); 0 keeps ``rest_depth_tol``.
         checks: which of each subgoal's checks run (an ablation switch, :mod:`~code_as_monitor.agent.check_modes`):
             ``all`` (default), ``reactive`` (only constraints with ``proactive`` False) or ``proactive`` (only
             those with it True). The planner and the feedback are unchanged; the dropped constraints are neither
@@ -72,6 +74,7 @@ class AgentConfig:
     rest_max_s: float = 1.5
     rest_still_frames: int = 2
     rest_depth_tol: float = 0.005
+    rest_noise_k: float = 5.0
     checks: str = "all"
 
     def __post_init__(self) -> None:
@@ -91,13 +94,14 @@ class AgentConfig:
         check_range(name, "rest_max_s", self.rest_max_s, 0.0, None)
         check_count(name, "rest_still_frames", self.rest_still_frames, 1)
         check_range(name, "rest_depth_tol", self.rest_depth_tol, 0.0, None, lo_open=True)
+        check_range(name, "rest_noise_k", self.rest_noise_k, 0.0, None)
         check_mode(self.checks, f"{name}.checks")
 
 
     def rest_wait(self) -> RestWait:
         """The re-plan wait these settings describe (compared frames one monitoring period apart)."""
         return RestWait(max_s=self.rest_max_s, period_s=1.0 / self.frame_hz, still_frames=self.rest_still_frames,
-                        depth_tol=self.rest_depth_tol)
+                        depth_tol=self.rest_depth_tol, noise_k=self.rest_noise_k)
 
 
 @dataclass

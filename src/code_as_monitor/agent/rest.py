@@ -8,8 +8,11 @@ changes in the depth images is the scene. :class:`RestWait` says when it has sto
 rest after ``still_frames`` monitored frames in a row each of which, in every view, differs from the frame that began
 the streak on at most ``moved_frac`` of the pixels by more than ``depth_tol`` metres (and the ``min_moved`` pixel
 floor: sensor noise flickers single pixels); a frame that differs more begins a new streak. Against the streak's first
-frame, not the previous one: a slow slide (3 cm/s is 3 mm a frame at 10 Hz) adds up. The wait ends at
-``max_s`` seconds in any case (a conveyor, a person walking by: the scene may never rest).
+frame, not the previous one: a slow slide (3 cm/s is 3 mm a frame at 10 Hz) adds up. A noisy depth camera raises
+the per-pixel tolerance to ``noise_k`` times the view's depth noise, estimated from the two frames (1.4826 x the
+median absolute difference over the pixels with a reading in both: most of a halted scene does not move), when that
+exceeds ``depth_tol``; noise-free depth (a simulator) leaves it at ``depth_tol``. The wait ends at ``max_s`` seconds
+in any case (a conveyor, a person walking by: the scene may never rest).
 
 Not while the robot holds something (:func:`in_hand`): a halted hand keeps what it holds as it is, and waiting
 can only let that get worse (a teapot halted tipped forward: its tea runs into the spout while the monitor
@@ -39,6 +42,8 @@ class RestWait:
         depth_tol: metres of depth change above which a pixel counts as moved.
         moved_frac: share of a view's pixels (with a reading in both frames) that may move in a still frame.
         min_moved: moved pixels always allowed per view (isolated noise), whatever the resolution.
+        noise_k: the per-pixel tolerance is at least this many times the depth noise estimated from the two frames
+            (5: independent Gaussian noise then moves one pixel in about 1.7 million); 0 keeps ``depth_tol``.
     """
 
     max_s: float = 1.5
@@ -47,9 +52,10 @@ class RestWait:
     depth_tol: float = 0.005
     moved_frac: float = 0.0005
     min_moved: int = 8
+    noise_k: float = 5.0
 
     def __post_init__(self) -> None:
-        for name in ("max_s", "depth_tol", "moved_frac"):
+        for name in ("max_s", "depth_tol", "moved_frac", "noise_k"):
             check_range("RestWait", name, getattr(self, name), 0.0, None)
         check_range("RestWait", "period_s", self.period_s, 0.0, None, lo_open=True)
         check_count("RestWait", "still_frames", self.still_frames, 1)
@@ -74,9 +80,18 @@ class RestWait:
             if d0 is None or d0.shape != d1.shape:
                 continue
             ok = np.isfinite(d0) & np.isfinite(d1) & (d0 > 0) & (d1 > 0)
-            moved = ok & (np.abs(d1 - d0) > self.depth_tol)
-            out[name] = (int(np.count_nonzero(moved)), int(np.count_nonzero(ok)))
+            diff = np.abs(d1[ok] - d0[ok])
+            out[name] = (int(np.count_nonzero(diff > self.tolerance(diff))), int(diff.size))
         return out
+
+    def tolerance(self, diff: np.ndarray) -> float:
+        """Metres of depth change above which a pixel counts as moved, given one view's absolute depth differences
+        ``diff`` (N,) over the pixels with a reading in both frames: ``depth_tol``, or ``noise_k`` times the noise
+        estimated from them (1.4826 x their median: the standard deviation of the difference for Gaussian noise,
+        robust to the pixels that did move) when that is larger."""
+        if self.noise_k <= 0 or diff.size == 0:
+            return self.depth_tol
+        return max(self.depth_tol, self.noise_k * 1.4826 * float(np.median(diff)))
 
     def still(self, before: dict[str, np.ndarray], now: dict[str, np.ndarray]) -> bool:
         """Whether nothing moved between two frames' depths (every compared view within the allowance)."""
