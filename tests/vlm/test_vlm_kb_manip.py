@@ -99,11 +99,14 @@ def test_pen_checks_decide_right_on_constructed_states(make_elements, run_progra
     missed = {**base, ("pen", "tip"): [0.58, -0.1, 0.1]}
     assert not run_program(src, make_elements(insert, missed))["over_pen_holder"][0]
     # The opening's centre is (0.5, -0.1) at rim height 0.08: the tip must be within 1.9 cm while it enters
-    # (3 cm above to 2 cm below the rim); deeper in, the upon checks judge it.
+    # (3 cm above the rim to the rim), within 3 cm below the rim (to 2 cm below: it is in the 5 x 5 cm opening,
+    # not beside the holder); deeper in, the upon checks judge it.
     def over(x: float, z: float) -> bool:
         return run_program(src, make_elements(insert, {**base, ("pen", "tip"): [x, -0.1, z]}))["over_pen_holder"][0]
     assert over(0.517, 0.09) and over(0.517, 0.07)  # 1.7 cm off, 1 cm above / below the rim: it enters
-    assert not over(0.523, 0.09) and not over(0.523, 0.07)  # 2.3 cm off in the window: it will hit the rim
+    assert not over(0.523, 0.09)  # 2.3 cm off, 1 cm above the rim: it will hit the rim
+    assert over(0.523, 0.07) and over(0.51, 0.07)  # 1 cm below the rim, by the wall: it entered
+    assert not over(0.538, 0.07)  # 3.8 cm off, 1 cm below the rim: beside the holder, it missed
     assert over(0.523, 0.15)  # still high
     assert over(0.523, 0.05)  # 3 cm below the rim: the upon checks judge it
     tilted = {**base, ("pen", "body"): [[0.42, 0.09, 0.2], [0.53, 0.09, 0.24]]}

@@ -55,8 +55,10 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # insert, during (proactive): while the pen tip enters (from 3 cm above the rim to 2 cm below it, the
     # depth the upon check asks for; deeper, the upon checks judge it) it must be within 1.9 cm
     # (horizontally) of the opening's centre: the opening's inner half-size (2.5 cm) less the pen's
-    # half-width (0.6 cm), the farthest a vertical 1.2 cm pen's tip can be and still enter.
-    "over": {"approach": 0.03, "max_offset": 0.019, "deep": 0.02},
+    # half-width (0.6 cm), the farthest a vertical 1.2 cm pen's tip can be and still enter. Once the tip is
+    # below the rim it has entered if it is within 3 cm: inside, a 1.2 cm pen's tip is at most 2.7 cm from the
+    # centre (in a corner of the 5 x 5 cm opening); beside the holder (outer half-size 3.1 cm) at least 3.7 cm.
+    "over": {"approach": 0.03, "max_offset": 0.019, "deep": 0.02, "entered_offset": 0.03},
     # insert, upon: the tip within 3 cm of the opening's centre (a released pen leans into a corner of
     # the 5 x 5 cm opening, 3.5 cm from the centre at most) and at least 2 cm below the rim.
     "inside": {"max_offset": 0.03, "min_depth": 0.02},
@@ -201,15 +203,17 @@ def carried(c: Spec) -> str:
 
 def over(c: Spec) -> str:
     """Parts: [object end (point), opening (surface)]. Entering the opening (the end between ``approach``
-    above the rim and ``deep`` below it) means centred over it; deeper in, the upon checks judge it."""
+    above the rim and ``deep`` below it) means centred over it: within ``max_offset`` above the rim, within
+    ``entered_offset`` below it (it is in); deeper in, the upon checks judge it."""
     end, rim = c["element_ids"][:2]
     th, en, rn = c["thresholds"], obj_name(c, 0), obj_name(c, 1)
-    ap, mo, dd = num(th["approach"]), num(th["max_offset"]), num(th["deep"])
+    ap, mo, dd, eo = num(th["approach"]), num(th["max_offset"]), num(th["deep"]), num(th["entered_offset"])
     body = f"""
     h = centroid(E[{end}])[2] - centroid(E[{rim}])[2]
     off = horizontal_distance(E[{end}], centroid(E[{rim}]))
-    margin = np.max([h - {ap}, {mo} - off, -h - {dd}])
-    if h >= {ap} or off <= {mo} or h < -{dd}:
+    lim = {mo} if h >= 0 else {eo}
+    margin = np.max([h - {ap}, lim - off, -h - {dd}])
+    if h >= {ap} or off <= lim or h < -{dd}:
         return True, {lit(en + " tip is above the opening of " + rn + " or still high (offset %.3f m, %.3f m above the rim)")} % (off, h), margin
     return False, {lit(en + " tip is %.3f m above the rim but offset %.3f m from the opening of " + rn + ": not above the opening, it will miss it")} % (h, off), margin
 """
