@@ -6,7 +6,9 @@ image, with no depth, no segmentation masks, no object poses and no history. Thi
 colour segmentation (HSV thresholds on the RGB of one view) and 2-D image-plane heuristics:
 
 - stacking (front view): is the green blob sitting on top of the red blob in the image? are their
-  horizontal image centres close? is the blob near the suction tip's image position?
+  horizontal image centres close? is the blob near the suction tip's image position? (Whether another
+  block hangs under the cup instead, ``taken``, is not judged: one image cannot tell which of two blocks
+  along the line of sight is on the cup; the answer is yes.)
 - sweeping (top view): how many block-coloured pixels, in units of one block's apparent area, lie
   inside the yellow zone's image rectangle?
 - rope (top view): along the side of the square's outline that has no outline pixels (the opening),
@@ -153,6 +155,8 @@ class VQAStandin:
         bx = self._find(view, x)
         target = objs[1] if len(objs) > 1 else None
         bt = self._find(view, target) if target else None
+        if key == "taken":  # which of two blocks hangs under the cup needs depth: not judged from one image
+            return VQAAnswer(True, f"no other block is seen on the suction cup instead of {_nice(x)}")
         if key == "still":
             if bx is None:
                 return VQAAnswer(False, f"cannot see {_nice(x)} in the image; it may have been moved")

@@ -10,8 +10,8 @@ Recovery (by the category of the feedback, :func:`~code_as_monitor.vlm.kb.shared
 collapse -> restart from the lowest tower level named in the feedback; offset -> pick the misplaced block
 again and re-place it; dropped -> pick it again; taken (the cup holds another block instead: a collapse left it
 lying on the block to pick) -> put that one down on free table, then pick again; anything else after a placement
--> place again. A pick after a failure or a set-down names the other blocks in its held check, so that its reason
-can say which one was taken.
+-> place again. A pick after a failure or a set-down also watches the other blocks (``taken``): one on the cup
+instead halts it with a reason that names that block.
 
 Thresholds are the paper's "manually initialized thresholds for common tasks in an external knowledge base"
 (supplementary, failure threshold selection): physical tolerances from the task geometry (block edge about
@@ -41,6 +41,11 @@ THRESHOLDS: dict[str, dict[str, float]] = {
         "min_rise": 0.03,  # the pick lifts the cup 6 cm above the block's top (its approach clearance); 3 cm
                            # is most of a block's height, far beyond the wander of a tracked centre
     },
+    # pick after a failure, during: no other block is on the cup instead. On the cup: within "held"'s distance of
+    # the tip and risen "held"'s rise since the pick began, or within twice that distance (a block the cup took at
+    # the edge of a side face hangs up to 4.5 cm from the tip) and carried with the tip (its displacement within
+    # 30 % of the tip's, which travelled at least the rise: a still block lags by the whole travel).
+    "taken": {"max_dist": 0.04, "min_rise": 0.03, "carried_dist": 0.08, "max_lag": 0.3},
     # place_on, during: the carried block stays on the cup until it rests on the target.
     "attached": {
         "max_dist": 0.05,  # tip to block centre while carried (looser than "held": the cup swings)
@@ -76,11 +81,19 @@ def pick(obj: str, tower_below: Sequence[tuple[str, str]] = (), others: Sequence
     Args:
         obj: the block to pick.
         tower_below: (upper, lower) pairs already stacked that must stay stacked.
-        others: blocks the cup may take instead (a collapse can leave one lying on ``obj``); the held check's
-            reason names one that was taken. Only read when ``obj`` is not held.
+        others: blocks the cup may take instead (a collapse can leave one lying on ``obj``, or an earlier pick
+            left one on the cup): a during check that none of them is on the tip while ``obj`` is not (``taken``).
+            A during check, not part of the held check: a stale element (hidden by the arm) leaves a check with no
+            verdict, which for an upon check at the policy's end is a failure, for a during check only no halt.
     """
-    return [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup", others=[whole(o) for o in others]),
-            *_tower_intact(tower_below)]
+    out = [held(obj, whole(obj), _thr("held"), tip=TIP, by="the suction cup"), *_tower_intact(tower_below)]
+    if others:
+        names = [nice(o) for o in others]
+        out.append(constraint(
+            f"taken_{obj}", f"no other block ({' or '.join(filter(None, [', '.join(names[:-1]), names[-1]]))}) is "
+            f"on the suction cup instead of {nice(obj)}: near its tip and risen or carried with it",
+            "during", False, _thr("taken"), [TIP, whole(obj), *[whole(o) for o in others]]))
+    return out
 
 
 def _tower_intact(pairs: Sequence[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -217,6 +230,34 @@ def released(c: Spec) -> str:
     return check_fn(c, body)
 
 
+def taken(c: Spec) -> str:
+    """Parts: [tip, the block to pick, other blocks...]. True while the block to pick is held or no other block is
+    on the tip (see the ``taken`` thresholds)."""
+    tip, x = c["element_ids"][:2]
+    th, xn = c["thresholds"], obj_name(c, 1)
+    md, mr, cd, lag = num(th["max_dist"]), num(th["min_rise"]), num(th["carried_dist"]), num(th["max_lag"])
+    body = f"""
+    travel = centroid(E[{tip}]) - centroid(H[{tip}][0])
+    moved = np.linalg.norm(travel)
+    d = distance(E[{tip}], centroid(E[{x}]))
+    if d <= {md} and centroid(E[{x}])[2] - centroid(H[{x}][0])[2] >= {mr}:
+        return True, {lit(xn + " is on the suction cup (%.3f m from the tip)")} % d, {md} - d
+    gaps = []
+"""
+    for i, k in enumerate(c["element_ids"][2:]):
+        kn = obj_name(c, i + 2)
+        body += f"""    dk = distance(E[{tip}], centroid(E[{k}]))
+    rk = centroid(E[{k}])[2] - centroid(H[{k}][0])[2]
+    lk = np.linalg.norm(centroid(E[{k}]) - centroid(H[{k}][0]) - travel)
+    if (dk <= {md} and rk >= {mr}) or (dk <= {cd} and moved >= {mr} and lk <= {lag} * moved):
+        return False, {lit(kn + " is on the tip instead of " + xn + " (%.3f m from it, risen %.3f m): " + xn + " is not held")} % (dk, rk), dk - {cd}
+    gaps.append(dk - {md})
+"""
+    body += f"""    return True, {lit("no other block is on the suction cup instead of " + xn)}, np.min(gaps)
+"""
+    return check_fn(c, body)
+
+
 def tower(c: Spec) -> str:
     up, lo_id = c["element_ids"][:2]
     th, un, ln = c["thresholds"], obj_name(c, 0), obj_name(c, 1)
@@ -338,7 +379,7 @@ FAMILY = TaskFamily(
     task_params=task_params,
     thresholds=THRESHOLDS,
     templates={"attached": attached, "still": still, "centred": centred, "resting": resting,
-               "released": released, "tower": tower},
-    keywords=(("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
+               "released": released, "tower": tower, "taken": taken},
+    keywords=(("instead of", "taken"), ("held by", "held"), ("attached", "attached"), ("stays in place", "still"), ("centred", "centred"),
               ("rests on", "resting"), ("released", "released"), ("still on", "tower")),
 )

@@ -16,7 +16,6 @@ templates: ``[gripper tip (point), object part (any)]``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 from code_as_monitor.vlm.kb.shared.answer import constraint, nice
@@ -35,17 +34,13 @@ def part_spec(obj: str, part: str, kind: str, label: str) -> dict[str, str]:
 
 
 def held(obj: str, part: dict[str, Any], th: dict[str, float], tip: dict[str, Any] = GRIP_TIP,
-         key: str = "held", by: str = "the gripper", others: Sequence[dict[str, Any]] = ()) -> dict[str, Any]:
+         key: str = "held", by: str = "the gripper") -> dict[str, Any]:
     """Upon a grasp or pick: ``obj`` is held (:func:`held_since_grasp`): its centre within ``th['max_dist']`` of
     ``tip`` and risen at least ``th['min_rise']`` since the grasp began. ``key`` is the id's prefix (``held`` or
-    ``lifted``: one template), ``by`` names the end effector in the text. ``others``: elements of objects that
-    could be on the tip instead (the reason names one that is)."""
-    text = (f"{nice(obj)} is held by {by}: its centre within {th['max_dist'] * 100:.0f} cm of the tip and risen at "
-            f"least {th['min_rise'] * 100:.0f} cm with it since the grasp began")
-    if others:
-        names = [nice(o["obj"]) for o in others]
-        text += f"; if not, whether {' or '.join(filter(None, [', '.join(names[:-1]), names[-1]]))} is on it instead"
-    return constraint(f"{key}_{obj}", text, "upon", False, th, [tip, part, *others])
+    ``lifted``: one template), ``by`` names the end effector in the text."""
+    return constraint(f"{key}_{obj}", f"{nice(obj)} is held by {by}: its centre within {th['max_dist'] * 100:.0f} cm "
+                      f"of the tip and risen at least {th['min_rise'] * 100:.0f} cm with it since the grasp began",
+                      "upon", False, th, [tip, part])
 
 
 def in_gripper(obj: str, part: dict[str, str], li: dict[str, float]) -> list[dict[str, Any]]:
@@ -91,33 +86,16 @@ def held_since_grasp(c: Spec) -> str:
     risen at least ``min_rise`` since the oldest frame of ``H`` (the grasp's start): it rose with the tip.
 
     An object resting on another under a hovering tip has not risen, so it is not held; a dropped one has not
-    either, or is far from the tip.
-
-    Further parts (other objects, optional) are only read when the object is not held: one of them that is on the
-    tip was taken instead, and the reason says so ("Y is on the tip instead of X"), so that the planner puts Y
-    down before trying X again. On the tip: within ``max_dist`` of it and risen ``min_rise`` since the grasp began
-    (a collapse left Y lying on X, and a suction cup sent down onto X took Y), or within twice ``max_dist`` and
-    moved with the tip since the grasp began (its displacement within 30 % of the tip's, which travelled at least
-    ``min_rise``: Y was already on the cup, taken by an earlier pick, e.g. at the edge of its side face)."""
+    either, or is far from the tip."""
     tip, x = c["element_ids"][:2]
     th, xn = c["thresholds"], obj_name(c, 1)
     md, mr = num(th["max_dist"]), num(th["min_rise"])
-    others = c["element_ids"][2:]
-    instead = "".join(f"""
-    dk = distance(E[{tip}], centroid(E[{k}]))
-    rk = centroid(E[{k}])[2] - centroid(H[{k}][0])[2]
-    lag = np.linalg.norm(centroid(E[{k}]) - centroid(H[{k}][0]) - travel)
-    if (dk <= {md} and rk >= {mr}) or (dk <= 2 * {md} and np.linalg.norm(travel) >= {mr} and lag <= 0.3 * np.linalg.norm(travel)):
-        return False, {lit(obj_name(c, i + 2) + " is on the tip instead of " + xn + " (%.3f m from it); " + xn + " is not held: it rose %.3f m")} % (dk, rise), margin
-""" for i, k in enumerate(others))
-    if others:
-        instead = f"\n    travel = centroid(E[{tip}]) - centroid(H[{tip}][0])" + instead
     body = f"""
     d = distance(E[{tip}], centroid(E[{x}]))
     rise = centroid(E[{x}])[2] - centroid(H[{x}][0])[2]
     margin = np.min([{md} - d, rise - {mr}])
     if d <= {md} and rise >= {mr}:
-        return True, {lit(xn + " is held: it rose %.3f m with the tip since the grasp began and is %.3f m from it")} % (rise, d), margin{instead}
+        return True, {lit(xn + " is held: it rose %.3f m with the tip since the grasp began and is %.3f m from it")} % (rise, d), margin
     return False, {lit(xn + " is not held: it rose %.3f m since the grasp began (needs " + mr + ") and is %.3f m from the tip (limit " + md + ")")} % (rise, d), margin
 """
     return check_fn(c, body)
