@@ -55,6 +55,17 @@ def test_on_top_in_the_image_plane():
     assert not ans.yes and classify(ans.reason) == "collapse"
 
 
+def test_a_hidden_lower_block_is_no_sign_of_a_collapse():
+    """During a pick the arm can hide the tower's lower block: the one image shows no collapse (the stand-in
+    answered "no", and DoReMi, asking every second, re-planned 31 times on an undisturbed tower); a block that
+    cannot be seen resting on is still "no" for the upon checks."""
+    img = _img()
+    _square(img, "green", 161, 136)  # red hidden
+    s = VQAStandin()
+    assert s.answer(_c("tower_green_block_on_red_block", "green_block", "red_block"), _obs(img)).yes
+    assert not s.answer(_c("resting_green_block_on_red_block", "green_block", "red_block"), _obs(img)).yes
+
+
 def test_centred_uses_horizontal_image_offset_only():
     s = VQAStandin()
     for du, ok in ((1, True), (7, False)):

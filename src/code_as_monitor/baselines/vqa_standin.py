@@ -174,6 +174,8 @@ class VQAStandin:
             return (VQAAnswer(False, f"{_nice(x)} is still held by the suction cup") if near
                     else VQAAnswer(True, f"{_nice(x)} is released"))
         if bt is None:
+            if key == "tower":  # the block below hidden (the arm, the block on it): no sign that the tower fell
+                return VQAAnswer(True, f"{_nice(x)} is visible; {_nice(target or '')} is hidden, no sign of a collapse")
             return VQAAnswer(False, f"cannot see {_nice(target or '')}; {_nice(x)} is not resting on it")
         on = self._on(bx, bt)
         if key == "attached":
