@@ -157,6 +157,8 @@ class VQAStandin:
         bt = self._find(view, target) if target else None
         if key == "taken":  # which of two blocks hangs under the cup needs depth: not judged from one image
             return VQAAnswer(True, f"no other block is seen on the suction cup instead of {_nice(x)}")
+        if key == "tower" and (bx is None or bt is None):  # one of the two hidden (the arm): no sign of a collapse
+            return VQAAnswer(True, f"{_nice(x)} and {_nice(target or '')} are not both visible; no sign of a collapse")
         if key == "still":
             if bx is None:
                 return VQAAnswer(False, f"cannot see {_nice(x)} in the image; it may have been moved")
@@ -174,8 +176,6 @@ class VQAStandin:
             return (VQAAnswer(False, f"{_nice(x)} is still held by the suction cup") if near
                     else VQAAnswer(True, f"{_nice(x)} is released"))
         if bt is None:
-            if key == "tower":  # the block below hidden (the arm, the block on it): no sign that the tower fell
-                return VQAAnswer(True, f"{_nice(x)} is visible; {_nice(target or '')} is hidden, no sign of a collapse")
             return VQAAnswer(False, f"cannot see {_nice(target or '')}; {_nice(x)} is not resting on it")
         on = self._on(bx, bt)
         if key == "attached":
