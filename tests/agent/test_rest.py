@@ -66,6 +66,21 @@ def test_a_noisy_depth_camera_raises_the_tolerance_and_still_sees_motion(sigma: 
     assert rest.tolerance(diff) == pytest.approx(5 * np.sqrt(2) * sigma, rel=0.1)
 
 
+def test_noise_that_grows_with_distance_is_estimated_per_depth_band() -> None:
+    """A view sloping from 0.5 to 1.5 m with noise growing as the square of the depth (2 mm at 1 m, 4.5 mm at
+    1.5 m): one estimate for the whole view is too small for the far pixels; per depth band it holds the view still."""
+    rng = np.random.default_rng(2)
+    z = np.linspace(0.5, 1.5, 240)[:, None] * np.ones((1, 320))
+
+    def frame() -> dict[str, np.ndarray]:
+        return {"front": (z + rng.normal(0, 0.002, z.shape) * z**2).astype(np.float32)}
+
+    rest = RestWait()
+    assert all(rest.still(frame(), frame()) for _ in range(5))
+    a, b = frame()["front"].ravel(), frame()["front"].ravel()
+    assert not all(np.abs(b - a) <= rest.tolerance(np.abs(b - a))), "a single estimate lets far pixels move"
+
+
 def test_noise_free_depth_keeps_the_tolerance() -> None:
     a, b = _depth(10)["front"], _depth(13)["front"]
     assert RestWait().tolerance(np.abs(b - a).ravel()) == RestWait().depth_tol

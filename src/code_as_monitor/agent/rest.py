@@ -10,9 +10,10 @@ the streak on at most ``moved_frac`` of the pixels by more than ``depth_tol`` me
 floor: sensor noise flickers single pixels); a frame that differs more begins a new streak. Against the streak's first
 frame, not the previous one: a slow slide (3 cm/s is 3 mm a frame at 10 Hz) adds up. A noisy depth camera raises
 the per-pixel tolerance to ``noise_k`` times the view's depth noise, estimated from the two frames (1.4826 x the
-median absolute difference over the pixels with a reading in both: most of a halted scene does not move), when that
-exceeds ``depth_tol``; noise-free depth (a simulator) leaves it at ``depth_tol``. The wait ends at ``max_s`` seconds
-in any case (a conveyor, a person walking by: the scene may never rest).
+median absolute difference over the pixels with a reading in both: most of a halted scene does not move; per depth
+band, as noise grows with distance), when that exceeds ``depth_tol``; noise-free depth (a simulator) leaves it at
+``depth_tol``. The wait ends at ``max_s`` seconds in any case (a conveyor, a person walking by: the scene may never
+rest).
 
 Not while the robot holds something (:func:`in_hand`): a halted hand keeps what it holds as it is, and waiting
 can only let that get worse (a teapot halted tipped forward: its tea runs into the spout while the monitor
@@ -81,17 +82,23 @@ class RestWait:
                 continue
             ok = np.isfinite(d0) & np.isfinite(d1) & (d0 > 0) & (d1 > 0)
             diff = np.abs(d1[ok] - d0[ok])
-            out[name] = (int(np.count_nonzero(diff > self.tolerance(diff))), int(diff.size))
+            out[name] = (int(np.count_nonzero(diff > self.tolerance(diff, d0[ok]))), int(diff.size))
         return out
 
-    def tolerance(self, diff: np.ndarray) -> float:
+    def tolerance(self, diff: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray | float:
         """Metres of depth change above which a pixel counts as moved, given one view's absolute depth differences
         ``diff`` (N,) over the pixels with a reading in both frames: ``depth_tol``, or ``noise_k`` times the noise
         estimated from them (1.4826 x their median: the standard deviation of the difference for Gaussian noise,
-        robust to the pixels that did move) when that is larger."""
+        robust to the pixels that did move) when that is larger. With ``depth`` (N,) metres, the noise is estimated
+        per eighth of the pixels by depth (a depth camera's noise grows with distance): (N,) tolerances."""
         if self.noise_k <= 0 or diff.size == 0:
             return self.depth_tol
-        return max(self.depth_tol, self.noise_k * 1.4826 * float(np.median(diff)))
+        if depth is None or diff.size < NOISE_BANDS * 16:
+            return max(self.depth_tol, self.noise_k * 1.4826 * float(np.median(diff)))
+        edges = np.quantile(depth, np.linspace(0.0, 1.0, NOISE_BANDS + 1)[1:-1])
+        band = np.searchsorted(edges, depth)
+        sigma = np.array([np.median(diff[band == b]) if np.any(band == b) else 0.0 for b in range(NOISE_BANDS)])
+        return np.maximum(self.depth_tol, self.noise_k * 1.4826 * sigma[band])
 
     def still(self, before: dict[str, np.ndarray], now: dict[str, np.ndarray]) -> bool:
         """Whether nothing moved between two frames' depths (every compared view within the allowance)."""
@@ -100,6 +107,9 @@ class RestWait:
                 return False
         return True
 
+
+NOISE_BANDS = 8
+"""Depth bands (equal pixel counts) in which :meth:`RestWait.tolerance` estimates the depth noise separately."""
 
 NO_WAIT = RestWait(max_s=0.0)
 
@@ -151,4 +161,4 @@ def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: 
     return False
 
 
-__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NO_WAIT", "RestWait", "in_hand"]
+__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NOISE_BANDS", "NO_WAIT", "RestWait", "in_hand"]
