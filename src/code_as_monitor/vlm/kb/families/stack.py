@@ -45,7 +45,7 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # the tip and risen "held"'s rise since the pick began, or within twice that distance (a block the cup took at
     # the edge of a side face hangs up to 4.5 cm from the tip) and carried with the tip (its displacement within
     # 30 % of the tip's, which travelled at least the rise: a still block lags by the whole travel).
-    "taken": {"max_dist": 0.04, "min_rise": 0.03, "carried_dist": 0.08, "max_lag": 0.3},
+    "taken": {"max_lag": 0.3},  # and "held"'s max_dist and min_rise, carried_dist twice that distance (below)
     # place_on, during: the carried block stays on the cup until it rests on the target.
     "attached": {
         "max_dist": 0.05,  # tip to block centre while carried (looser than "held": the cup swings)
@@ -66,6 +66,10 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # place_on, during: lower levels of the tower stay stacked (reactive collapse detection).
     "tower": {"max_offset": 0.025, "min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
 }
+
+
+THRESHOLDS["taken"] = {"max_dist": THRESHOLDS["held"]["max_dist"], "min_rise": THRESHOLDS["held"]["min_rise"],
+                       "carried_dist": 2 * THRESHOLDS["held"]["max_dist"], **THRESHOLDS["taken"]}
 
 
 def _thr(kind: str) -> dict[str, float]:
