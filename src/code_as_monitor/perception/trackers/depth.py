@@ -22,7 +22,9 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    model points must be seen at their predicted depth (``min_seen``, ``min_seen_frac`` of the count
    seen at paint time) and few contradicted by a reading behind them (``max_contradiction``). The
    first guess whose registration barely moved it and passes ends the search; otherwise the passing
-   result with the most evidence wins;
+   result with the most evidence wins among those the frame contradicts no more than the last pose (seen
+   points cannot tell poses apart along an axis the shape leaves free: a pen let go slides down its holder);
+   a body just let go whose results are all more contradicted climbs its projective evidence to one that is not;
 4. no passing result: the body is *lost* this frame and its elements are stale (they keep their last good
    points; nothing is guessed). A lost body keeps being searched from its last pose (and, while held, from
    where the end-effector carried it). After ``reacquire_after`` lost frames the hook set by :meth:`set_reacquire`

@@ -147,11 +147,13 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
     surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
     coarser start (``fall_correspondence``) and with a higher bar (``fall_seen_frac``). With ``climb``, when no
-    registration passes, the projective evidence is climbed from the likeliest guesses (:func:`_climb_from`;
-    asked for a settling body only: for any body, a flat one gone from the table climbs into the table, whose
-    surface then explains its points). The search stops at a passing result with as
-    much evidence as the last frame had; otherwise the passing result with the most evidence wins (a static
-    cabinet frame does not follow its drawer: the drawer's motion passes for it but fits worse than staying put).
+    registration passes, or none that the frame contradicts no more than the last good pose (:func:`_rank`), the
+    projective evidence is climbed from the best result and the likeliest guesses (:func:`_climb_from`; asked for
+    a settling body only: for any body, a flat one gone from the table climbs into the table, whose surface then
+    explains its points). The search stops at a passing result with as much evidence as the last frame had;
+    otherwise the passing result that ranks first (:func:`_rank`: not more contradicted than the last pose, then
+    the most evidence) wins (a static cabinet frame does not follow its drawer: the drawer's motion passes for it
+    but fits worse than staying put).
     A pose that sinks the body more than ``plane_band`` into the support ``plane`` is refused: points behind a
     surface are only occluded to the cameras."""
     import small_gicp
@@ -200,13 +202,15 @@ def _search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene
                 continue
             if _sinks(c, model, T, plane):
                 continue  # sunk into the support plane: the cameras cannot see that, but it is solid
-            if best is None or _score(sup) > _score(best[1]):
+            if best is None or _rank(body, sup) > _rank(body, best[1]):
                 best = (T, sup)
             if _as_good_as_last(c, body, sup):
                 return best
-    if best is None and climb:
-        best = _climb_from(c, body, views, [T for T, g in zip(guesses[:start[1]], at_guess) if g is not None],
-                           need, plane)
+    if climb and (best is None or not _rank(body, best[1])[0]):
+        starts = [T for T, g in zip(guesses[:start[1]], at_guess) if g is not None]
+        climbed = _climb_from(c, body, views, starts if best is None else [best[0], *starts], need, plane)
+        if climbed is not None and (best is None or _rank(body, climbed[1]) > _rank(body, best[1])):
+            best = climbed
     return best
 
 
@@ -216,7 +220,7 @@ CLIMB_STEPS = 40
 
 def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], starts: list[np.ndarray], need: int,
                 plane: Plane | None) -> tuple[np.ndarray, Support] | None:
-    """The pose that the views explain best (:func:`_score`) near the two best of ``starts`` (4, 4), by coordinate
+    """The pose that the views explain best (:func:`_rank`) near the two best of ``starts`` (4, 4), by coordinate
     ascent: shifts of ``voxel`` along the world axes and turns of 2 degrees about them through the model's centre,
     halved when none improves, down to a quarter, the centre kept within the coarsest correspondence distance of its
     start (a correction, not a search of the scene); accepted under the search's checks (``need`` seen points, at most
@@ -230,7 +234,10 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     def evidence(T: np.ndarray) -> Support:
         return support(apply(T, model.points), views, c.depth_tol, c.max_depth)
 
-    ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: -_score(x[1]))[:2]
+    def key(sup: Support) -> tuple[bool, float]:
+        return _rank(body, sup)
+
+    ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: key(x[1]), reverse=True)[:2]
     best: tuple[np.ndarray, Support] | None = None
     for T, sup in ranked:
         T_start, step, turn = T, c.voxel, np.radians(2.0)
@@ -247,8 +254,8 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
                     M[:3, :3], M[:3, 3] = R, ctr - R @ ctr
                     moves.append(M)
             near = [M @ T for M in moves if centre_shift(model, T_start, M @ T) <= c.max_correspondence[0]]
-            cand = max(((S, evidence(S)) for S in near), key=lambda x: _score(x[1])) if near else (T, sup)
-            if _score(cand[1]) > _score(sup):
+            cand = max(((S, evidence(S)) for S in near), key=lambda x: key(x[1])) if near else (T, sup)
+            if key(cand[1]) > key(sup):
                 T, sup = cand
             elif step > c.voxel / 4:
                 step, turn = step / 2, turn / 2
@@ -258,7 +265,7 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
             continue
         if _sinks(c, model, T, plane):
             continue
-        if best is None or _score(sup) > _score(best[1]):
+        if best is None or key(sup) > key(best[1]):
             best = (T, sup)
     return best
 
@@ -352,6 +359,17 @@ def _angle(A: np.ndarray, B: np.ndarray) -> float:
     """Degrees between the rotations of two poses (4, 4)."""
     R = A[:3, :3].T @ B[:3, :3]
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+def _rank(body: BodyState, s: Support) -> tuple[bool, float]:
+    """How a passing pose ranks in the search: first whether the frame contradicts it no more than it did the
+    body's last good pose (the allowance of :func:`_as_good_as_last`), then its evidence (:func:`_score`). Seen
+    points cannot tell poses apart along a direction the body's shape does not constrain (a pen let go into its
+    holder slides down its own axis: one centimetre higher its shaft is seen as well, and more of it, since less
+    is hidden in the holder), while a contradicted point is the frame seeing through where the pose puts the body."""
+    last = body.last
+    clean = last is None or s.contradicted <= last.contradicted + max(2, 0.01 * last.seen)
+    return clean, _score(s)
 
 
 def _score(s: Support) -> float:
