@@ -33,7 +33,8 @@ PIXEL_SHIFT: dict[str, tuple[float, float]] = {"tiny": (0.5, -0.5), "egl": (0.0,
 TinyRenderer shows the scene half a pixel right of and above where a camera with ``cx = (W - 1) / 2``,
 ``cy = (H - 1) / 2`` (pixel centres at integer coordinates) projects it: fitting the projected silhouettes of
 blocks of known pose to their rendered masks gives exactly (+0.5, -0.5) with no pixel left over, at 640x480,
-320x240, 321x241 and 200x150 and fields of view of 40-70 degrees (``tests/sim/test_camera_pixel_grid.py``).
+320x240, 321x241 and 200x150 and fields of view of 40-70 degrees (``tests/sim/test_camera_pixel_grid.py`` checks
+three other cameras to 2 pixels).
 Without it every lifted point lay up to half a pixel sideways (about 2 mm at 1 m in a 320x240 view), in a
 different direction per view, and the faces of a block seen from the front view read 1-2 mm off its true
 faces. The hardware renderer (EGL) was not available to measure (no GL here): no shift is assumed for it."""
