@@ -234,10 +234,7 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     def evidence(T: np.ndarray) -> Support:
         return support(apply(T, model.points), views, c.depth_tol, c.max_depth)
 
-    def key(sup: Support) -> tuple[bool, float]:
-        return _rank(body, sup)
-
-    ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: key(x[1]), reverse=True)[:2]
+    ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: _rank(body, x[1]), reverse=True)[:2]
     best: tuple[np.ndarray, Support] | None = None
     for T, sup in ranked:
         T_start, step, turn = T, c.voxel, np.radians(2.0)
@@ -254,8 +251,8 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
                     M[:3, :3], M[:3, 3] = R, ctr - R @ ctr
                     moves.append(M)
             near = [M @ T for M in moves if centre_shift(model, T_start, M @ T) <= c.max_correspondence[0]]
-            cand = max(((S, evidence(S)) for S in near), key=lambda x: key(x[1])) if near else (T, sup)
-            if key(cand[1]) > key(sup):
+            cand = max(((S, evidence(S)) for S in near), key=lambda x: _rank(body, x[1])) if near else (T, sup)
+            if _rank(body, cand[1]) > _rank(body, sup):
                 T, sup = cand
             elif step > c.voxel / 4:
                 step, turn = step / 2, turn / 2
@@ -265,7 +262,7 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
             continue
         if _sinks(c, model, T, plane):
             continue
-        if best is None or key(sup) > key(best[1]):
+        if best is None or _rank(body, sup) > _rank(body, best[1]):
             best = (T, sup)
     return best
 
@@ -336,10 +333,14 @@ def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support
 def _as_good_as_last(c: DepthTrackerConfig, body: BodyState, sup: Support) -> bool:
     """Whether ``sup`` is as much evidence as the body's last good pose had (the search may stop)."""
     last = body.last
-    if last is None:
-        return False
-    return (sup.seen >= c.unmoved_seen * last.seen
-            and sup.contradicted <= last.contradicted + max(2, 0.01 * last.seen))
+    return last is not None and sup.seen >= c.unmoved_seen * last.seen and _no_more_contradicted(body, sup)
+
+
+def _no_more_contradicted(body: BodyState, sup: Support) -> bool:
+    """Whether the frame contradicts ``sup``'s pose no more than the body's last good pose (an allowance of 2
+    points or 1 % of the last pose's seen ones); True without a last pose."""
+    last = body.last
+    return last is None or sup.contradicted <= last.contradicted + max(2, 0.01 * last.seen)
 
 
 def moves_body(M: np.ndarray, body: BodyState) -> bool:
@@ -363,13 +364,11 @@ def _angle(A: np.ndarray, B: np.ndarray) -> float:
 
 def _rank(body: BodyState, s: Support) -> tuple[bool, float]:
     """How a passing pose ranks in the search: first whether the frame contradicts it no more than it did the
-    body's last good pose (the allowance of :func:`_as_good_as_last`), then its evidence (:func:`_score`). Seen
+    body's last good pose (:func:`_no_more_contradicted`), then its evidence (:func:`_score`). Seen
     points cannot tell poses apart along a direction the body's shape does not constrain (a pen let go into its
     holder slides down its own axis: one centimetre higher its shaft is seen as well, and more of it, since less
     is hidden in the holder), while a contradicted point is the frame seeing through where the pose puts the body."""
-    last = body.last
-    clean = last is None or s.contradicted <= last.contradicted + max(2, 0.01 * last.seen)
-    return clean, _score(s)
+    return _no_more_contradicted(body, s), _score(s)
 
 
 def _score(s: Support) -> float:
