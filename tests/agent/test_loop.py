@@ -10,7 +10,7 @@ import pytest
 from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runtime, Tracker, World, _subgoal
 
 from code_as_monitor.agent.loop import Agent, AgentConfig
-from code_as_monitor.core import Element
+from code_as_monitor.core import Action, Constraint, Element, ElementSpec, Phase, Subgoal
 from code_as_monitor.core.errors import ConfigError
 
 
@@ -125,3 +125,42 @@ def test_upon_checks_are_judged_on_re_painted_elements_when_the_policy_finishes(
     ep = agent.run("move the block", w, MovePolicy(w, stop_at=0.25))
     assert ep.subgoals[0].outcome == ("success" if refresh else "reactive_failure")
     assert any(k == "final_check" for k, _ in events)
+
+
+def _set_subgoal(monotone: list[str]) -> Subgoal:
+    """Upon: at least two of three rope beads have reached x >= 0.2 (more beads can only help)."""
+    beads = [ElementSpec(f"rope bead {i}", "rope", f"bead_{i}", "point") for i in range(3)]
+    c = Constraint("covered", "two beads reached x >= 0.2", Phase.UPON, beads, monotone=monotone)
+    return Subgoal("drag the rope", [c], Action("move", {"obj": "rope"}))
+
+
+@pytest.mark.parametrize("monotone, need", [(["rope"], 2), ([], 2), (["rope"], 3)])
+def test_a_set_check_with_unseen_members_is_judged_on_the_members_seen(monotone: list[str], need: int) -> None:
+    """One bead is stale all along. A check over monotone members that holds on the two beads seen completes the
+    subgoal (early halt, the reason names the unseen bead); without ``monotone`` it has no verdict; one that does
+    not hold on those seen (three needed) has no verdict either: neither an early halt nor a failure read from
+    the beads seen."""
+    w = World()
+    planner = Planner([_set_subgoal(monotone)])
+    rules = {"covered": lambda P, t: sum(p[0, 0] >= 0.2 for p in P.values()) >= need}
+    events: list[tuple[str, dict]] = []
+    agent = Agent(planner, Coder(), Painter(), Tracker(w), Runtime(rules), History,
+                  AgentConfig(max_replans=0), on_event=lambda kind, **f: events.append((kind, f)))
+    real_step = Tracker.step
+
+    def step(self, obs):
+        tr = real_step(self, obs)
+        tr.stale = {i: np.array([i == 0]) for i in tr.points}
+        return tr
+
+    agent.tracker.step = step.__get__(agent.tracker)
+    policy = MovePolicy(w)
+    ep = agent.run("drag the rope", w, policy)
+    sg = ep.subgoals[0]
+    if monotone and need == 2:
+        assert sg.outcome == "success" and policy.halts == 1
+        assert "judged on the elements seen (unseen: [0])" in sg.reason
+        assert any(k == "verdicts_unknown" and f["judged_on_seen"] == ["covered"] for k, f in events)
+    else:
+        assert policy.halts == 0, "no verdict: the policy runs to its end"
+        assert sg.outcome == "reactive_failure" and "no verdict" in sg.reason

@@ -41,7 +41,21 @@ def test_constraint_validation_names_bad_values() -> None:
         Constraint("ok", "x", "before")
     assert Phase.parse(" UPON ") is Phase.UPON
     c = Constraint.from_dict({"id": "a", "text": "t", "phase": "during"})
-    assert c.parts == [] and c.thresholds == {} and c.proactive is False
+    assert c.parts == [] and c.thresholds == {} and c.proactive is False and c.monotone == []
+    with pytest.raises(ConfigError, match=r"monotone entries \['rope'\] name none of its parts"):
+        Constraint("a", "t", "upon", [ElementSpec("red", "red_block")], monotone=["rope"])
+
+
+def test_monotone_members_by_object_or_part_name() -> None:
+    parts = [ElementSpec("corner", "square", "corner_0")]
+    parts += [ElementSpec(f"bead {i}", "rope", f"b{i}") for i in range(3)]
+    c = Constraint("covered", "t", "upon", parts, element_ids=[7, 3, 4, 5], monotone=["rope"])
+    assert c.monotone_element_ids() == {3, 4, 5}
+    assert Constraint.from_dict(c.to_dict()) == c and c.to_dict()["monotone"] == ["rope"]
+    assert Constraint("c", "t", "upon", parts, element_ids=[7, 3, 4, 5], monotone=["bead 1"]).monotone_element_ids() \
+        == {4}
+    assert "monotone" not in Constraint("c", "t", "upon", parts).to_dict()
+    assert Constraint("c", "t", "upon", parts, monotone=["rope"]).monotone_element_ids() == set()  # ids not filled
 
 
 def test_verdict_to_dict_maps_nan_margin_to_null() -> None:

@@ -13,10 +13,13 @@ from code_as_monitor.geometry.helpers import MONITOR_HELPERS
 from code_as_monitor.planning import legend_specs
 
 
-class History(list):
-    """``H``: per-element histories (T, k, 3) with ``H.t`` (T,)."""
+class History(dict):
+    """``H`` as the sandbox gives it: element id -> history (T, k, 3), with ``H.t`` (T,); built from a list."""
 
     t: np.ndarray
+
+    def __init__(self, per_element: list[np.ndarray]) -> None:
+        super().__init__(enumerate(per_element))
 
 
 def elements_for(subgoal: Subgoal, points: dict[tuple[str, str], np.ndarray]) -> list[Element]:
@@ -38,7 +41,7 @@ def run_checks(source: str, elements: list[Element], history: list[np.ndarray] |
     """Execute every ``check_*`` of ``source`` (trusted kb templates, tests only) on the given state."""
     ns: dict = {"np": np, "math": math, **MONITOR_HELPERS}
     exec(compile(source, "<kb program>", "exec"), ns)
-    E = [e.points for e in elements]
+    E = {i: e.points for i, e in enumerate(elements)}
     H = History(history if history is not None else [np.stack([e.points, e.points]) for e in elements])
     H.t = np.array([0.0, t])
     return {name[len("check_"):]: ns[name](E, H, t) for name in ns if name.startswith("check_")}

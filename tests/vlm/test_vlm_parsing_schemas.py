@@ -55,6 +55,10 @@ def test_schema_accepts_and_converts():
     sg = parse_generator_output(GOOD, CTX).to_subgoal()
     assert sg.action.skill == "pick" and sg.constraints[0].phase.value == "upon"
     assert sg.constraints[0].parts[1].part == "" and not sg.done
+    assert sg.constraints[0].monotone == []
+    obj = GOOD["constraints"][0]["parts"][1]["obj"]
+    set_like = {**GOOD, "constraints": [{**GOOD["constraints"][0], "monotone": [obj]}]}
+    assert parse_generator_output(set_like, CTX).to_subgoal().constraints[0].monotone == [obj]
     done = parse_generator_output({"subgoal": "task complete", "done": True}, CTX).to_subgoal()
     assert done.done and done.constraints == [] and done.action is None
 
@@ -73,6 +77,7 @@ def test_schema_accepts_and_converts():
          "kind"),
         ({"done": True}, "must have no constraints"),
         ({"extra": 1}, "extra"),
+        ({"constraints": [{**GOOD["constraints"][0], "monotone": ["rope"]}]}, r"monotone entries \['rope'\]"),
     ],
 )
 def test_schema_rejects_with_readable_errors(patch, message):

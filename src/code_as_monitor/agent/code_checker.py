@@ -10,7 +10,8 @@ ends the subgoal ``violated`` before its action starts. Every due frame
 check ends the subgoal (``violated``, halt); every ``upon`` check holding for ``upon_dwell_frames``
 frames ends it (``success``, halting a still-moving policy); a policy that finished is judged on
 re-measured elements over up to ``settle_frames`` more frames (``success`` or ``reactive_failure``).
-A check that reads a stale element (lost by the tracker) gets no verdict that frame.
+A check that reads a stale element (lost by the tracker) gets no verdict that frame, unless every stale element it
+reads is a monotone member of its constraint (``Constraint.monotone``) and it holds on the elements seen.
 """
 
 from __future__ import annotations
@@ -215,6 +216,7 @@ class CodeChecker(SubgoalCompletion):
         self._upon_streak = 0
         self._verdict_state: dict[str, str] = {}  # constraint id -> "ok" | "violated" | "fault"
         self._uses = {c.id: set(c.element_ids) for c in subgoal.constraints}
+        self._monotone = {c.id: c.monotone_element_ids() for c in subgoal.constraints}
         self._unknown_before: set[str] = set()
         self._settling = False
         at_start = list(getattr(accepted["report"], "violated_at_start", None) or ())
@@ -259,10 +261,14 @@ class CodeChecker(SubgoalCompletion):
         stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
         stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
         unknown = {cid for cid, ids in self._uses.items() if ids & stale_ids}
+        # ... unless the stale ones are monotone members of its constraint and it holds on those seen
+        seen = self._judged_on_seen(tr.points, stale_ids, unknown, obs.t)
+        unknown -= set(seen)
         if unknown != self._unknown_before:
-            ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids))
+            ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids),
+                     judged_on_seen=sorted(seen))
             self._unknown_before = unknown
-        verdicts = [v for v in verdicts if v.constraint_id not in unknown]
+        verdicts = [seen.get(v.constraint_id, v) for v in verdicts if v.constraint_id not in unknown]
         violated = [v for v in verdicts if v.phase is Phase.DURING and not v.ok and not v.fault]
         upon_v = [v for v in verdicts if v.phase is Phase.UPON and not v.fault]
         for v in verdicts:

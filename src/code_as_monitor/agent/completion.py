@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,7 @@ class SubgoalCompletion:
     _tracked: dict[int, float]
     _upon: list[Any]
     _uses: dict[str, set[int]]
+    _monotone: dict[str, set[int]]
     _period: float
     _subgoal: Any
     _last: tuple | None
@@ -127,11 +129,44 @@ class SubgoalCompletion:
 
     def _upon_verdicts(self, points: dict, stale_ids: set[int], t: float) -> list[Verdict]:
         """The program's upon verdicts on ``points`` (element id -> (k, 3) world metres) with the current history;
-        a fault, or a check reading an element in ``stale_ids``, is no verdict."""
+        a fault, or a check reading an element in ``stale_ids``, is no verdict, unless those are monotone members
+        of its constraint and it holds on the elements seen (:meth:`_judged_on_seen`)."""
         H, ht = self._history.arrays()
         ids = {c.id for c in self._upon}
-        return [v for v in self.runtime.step(points, H, ht, t)
-                if v.constraint_id in ids and not v.fault and not (self._uses[v.constraint_id] & stale_ids)]
+        verdicts = [v for v in self.runtime.step(points, H, ht, t) if v.constraint_id in ids and not v.fault]
+        unknown = {v.constraint_id for v in verdicts if self._uses[v.constraint_id] & stale_ids}
+        seen = self._judged_on_seen(points, stale_ids, unknown, t)
+        return [seen.get(v.constraint_id, v) for v in verdicts
+                if v.constraint_id not in unknown or v.constraint_id in seen]
+
+    def _judged_on_seen(self, points: dict, stale_ids: set[int], unknown: set[str], t: float) -> dict[str, Verdict]:
+        """Verdicts for checks that have none this frame because they read stale elements, when every stale element
+        they read is a monotone member of their constraint (:attr:`~code_as_monitor.core.constraints.Constraint.
+        monotone`: a set more members can only help to hold, like a rope's beads covering a gap): the program runs
+        once more with the stale elements left out of ``E`` and ``H``, and a check that holds on the elements seen
+        gets that verdict (the unseen members cannot undo it); one that does not hold stays without a verdict.
+
+        Args:
+            points: element id -> (k, 3) world metres, this frame.
+            stale_ids: the elements stale this frame.
+            unknown: ids of the constraints without a verdict because they read one of ``stale_ids``.
+            t: now, seconds.
+        Returns:
+            constraint id -> its verdict on the elements seen, for those that hold.
+        """
+        set_like = {cid for cid in unknown
+                    if self._monotone.get(cid) and self._uses[cid] & stale_ids <= self._monotone[cid]}
+        if not set_like:
+            return {}
+        H, ht = self._history.arrays()
+        seen_points = {i: p for i, p in points.items() if i not in stale_ids}
+        seen_history = {i: h for i, h in H.items() if i not in stale_ids}
+        out: dict[str, Verdict] = {}
+        for v in self.runtime.step(seen_points, seen_history, ht, t):
+            if v.constraint_id in set_like and v.ok and not v.fault:
+                unseen = sorted(self._uses[v.constraint_id] & stale_ids)
+                out[v.constraint_id] = replace(v, reason=f"{v.reason}; judged on the elements seen (unseen: {unseen})")
+        return out
 
     def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,

@@ -42,6 +42,12 @@ class Constraint:
         thresholds: named numeric tolerances the check uses (metres, radians, counts).
         proactive: True when the constraint predicts a failure (e.g. "the block below is offset, so
             stacking on it will topple"), False when it detects one that happened (reactive).
+        monotone: parts (by part ``name`` or object ``obj``) that the check reads as an anonymous set which
+            more members can only help to hold: a rope's beads covering a gap, blocks of a pile of which "at
+            least n" must lie in a zone. When the only stale elements a check reads are such members, the
+            agent runs the check on the members it sees: a True verdict stands (the seen members already
+            satisfy it), a False one is no verdict (an unseen member might change it). Empty: every stale
+            element leaves the check without a verdict.
     """
 
     id: str
@@ -51,11 +57,24 @@ class Constraint:
     element_ids: list[int] = field(default_factory=list)
     thresholds: dict[str, float] = field(default_factory=dict)
     proactive: bool = False
+    monotone: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not _ID_RE.match(self.id):
             raise ConfigError(f"constraint id {self.id!r} is not a valid identifier")
         self.phase = Phase.parse(self.phase)
+        known = {p.name for p in self.parts} | {p.obj for p in self.parts}
+        bad = [m for m in self.monotone if m not in known]
+        if bad:
+            raise ConfigError(f"constraint {self.id!r}: monotone entries {bad} name none of its parts "
+                              f"(part names or objects: {sorted(known)})")
+
+    def monotone_element_ids(self) -> set[int]:
+        """Element ids of the parts named in :attr:`monotone` (needs ``element_ids`` filled, parts order)."""
+        if not self.monotone or len(self.element_ids) != len(self.parts):
+            return set()
+        names = set(self.monotone)
+        return {int(i) for p, i in zip(self.parts, self.element_ids) if p.name in names or p.obj in names}
 
     @property
     def function_name(self) -> str:
@@ -70,6 +89,7 @@ class Constraint:
             "element_ids": list(self.element_ids),
             "thresholds": dict(self.thresholds),
             "proactive": self.proactive,
+            **({"monotone": list(self.monotone)} if self.monotone else {}),
         }
 
     @classmethod
@@ -82,6 +102,7 @@ class Constraint:
             element_ids=[int(i) for i in d.get("element_ids", [])],
             thresholds={k: float(v) for k, v in d.get("thresholds", {}).items()},
             proactive=bool(d.get("proactive", False)),
+            monotone=[str(m) for m in d.get("monotone", [])],
         )
 
 

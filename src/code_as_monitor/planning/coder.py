@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from code_as_monitor.core.constraints import Subgoal
+from code_as_monitor.core.constraints import Constraint, Subgoal
 from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
@@ -147,6 +147,17 @@ def legend_row(e: Element) -> list:
     return row
 
 
+def _constraint_entry(c: Constraint, ids: list[int]) -> dict:
+    """One constraint of the coder's request; ``monotone``: the ids of its set-like parts, only when it has some
+    (the program must read them as possibly missing, :attr:`Constraint.monotone`)."""
+    entry: dict = {"id": c.id, "text": c.text, "phase": c.phase.value, "thresholds": dict(c.thresholds),
+                   "element_ids": ids}
+    if c.monotone:
+        names = set(c.monotone)
+        entry["monotone"] = [i for p, i in zip(c.parts, ids) if p.name in names or p.obj in names]
+    return entry
+
+
 def coder_request(subgoal: Subgoal, elements: list[Element], feedback: str | None = None) -> dict:
     """The coder's request: the subgoal, each constraint with its phase, thresholds and the ids of its parts'
     elements (the parts themselves are not repeated: the legend says what each element is), the compact legend
@@ -155,8 +166,7 @@ def coder_request(subgoal: Subgoal, elements: list[Element], feedback: str | Non
     ids = resolve_element_ids(subgoal, elements)
     request: dict = {
         "subgoal": subgoal.text,
-        "constraints": [{"id": c.id, "text": c.text, "phase": c.phase.value, "thresholds": dict(c.thresholds),
-                         "element_ids": ids[c.id]} for c in subgoal.constraints],
+        "constraints": [_constraint_entry(c, ids[c.id]) for c in subgoal.constraints],
         "elements": [legend_row(e) for e in elements],
     }
     if feedback:

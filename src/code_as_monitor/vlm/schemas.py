@@ -62,6 +62,17 @@ class ConstraintOut(BaseModel):
     proactive: bool = False
     thresholds: dict[str, float] = Field(default_factory=dict)
     parts: list[PartOut] = Field(min_length=1)
+    monotone: list[str] = Field(default_factory=list)
+    """Parts (part names or objects) read as a set that more members can only help to hold (a rope's beads
+    covering a gap): see :attr:`code_as_monitor.core.constraints.Constraint.monotone`."""
+
+    @model_validator(mode="after")
+    def _monotone_names_parts(self) -> ConstraintOut:
+        known = {p.name for p in self.parts} | {p.obj for p in self.parts}
+        bad = [m for m in self.monotone if m not in known]
+        if bad:
+            raise ValueError(f"monotone entries {bad} name none of the constraint's parts or their objects")
+        return self
 
 
 class ActionOut(BaseModel):
@@ -120,6 +131,7 @@ class GeneratorOutput(BaseModel):
                 parts=[ElementSpec(p.name, p.obj, p.part, ElementKind.parse(p.kind)) for p in c.parts],
                 thresholds=dict(c.thresholds),
                 proactive=c.proactive,
+                monotone=list(c.monotone),
             )
             for c in self.constraints
         ]

@@ -178,14 +178,14 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...], coverage: float |
         {"name": f"{shape} opening corner_3", "obj": shape, "part": "corner_3", "kind": "point"},
     ] + [{"name": f"rope {b}", "obj": rope, "part": b, "kind": "point"} for b in beads]
     return [
-        constraint(
+        {**constraint(
             "rope_covers_opening",
             f"{nice(rope)} closes the opening of {nice(shape)}: at least {thr['min_fraction'] * 100:.0f} % of "
             f"the opening (corner_3 to corner_0, corners included) has a resting rope bead within "
             f"{thr['max_gap'] * 100:.1f} cm, steadily for {thr['stable_s']:g} s (judged within "
             f"{(thr['max_gap'] - thr['margin']) * 100:.1f} cm: the elements are estimates)",
             "upon", False, thr, parts,
-        )
+        ), "monotone": [rope]}  # any bead covers a sample: a bead unseen this frame can only add coverage
     ]
 
 
@@ -193,24 +193,32 @@ def close_shape(rope: str, shape: str, beads: tuple[str, ...], coverage: float |
 def covers(c: Spec) -> str:
     c0, c3 = c["element_ids"][:2]
     beads = tuple(c["element_ids"][2:])
+    # the beads are monotone members (``Constraint.monotone``): the agent may leave unseen ones out of E and H
+    seen = bool(set(beads) & set(c.get("monotone") or ()))
     th = c["thresholds"]
     gap = num(th["max_gap"] - th.get("margin", 0.0))
     n, mz, frac = int(th["samples"]), num(th["max_z"]), num(th["min_fraction"])
     win = num(th["stable_s"])
+    if seen:  # the beads seen this frame (an empty set covers nothing: the minimum starts at 1 m)
+        pick = f"present = [i for i in {beads!r} if i in H]\n    "
+        each, least = "present", "np.min(d, axis=1, initial=1.0)"
+        count = f" (%d of {len(beads)} beads seen)\" % (100 * covered, len(present))"
+    else:
+        pick, each, least, count = "", repr(beads), "np.min(d, axis=1)", "\" % (100 * covered)"
     body = f"""
-    s = np.linspace(0.0, 1.0, {n})
+    {pick}s = np.linspace(0.0, 1.0, {n})
     covered = 1.0
     for j in np.nonzero(H.t >= t - {win})[0]:
         a = centroid(H[{c0}][j])
         b = centroid(H[{c3}][j])
         samples = a[None, :2] + s[:, None] * (b - a)[None, :2]
-        beads = np.array([centroid(H[i][j]) for i in {beads!r}])
+        beads = np.array([centroid(H[i][j]) for i in {each}]).reshape(-1, 3)
         carried = np.maximum(beads[:, 2] - {mz}, 0.0) * 1000.0
         d = np.sqrt(np.sum((samples[:, None, :] - beads[None, :, :2]) ** 2, axis=2)) + carried[None, :]
-        covered = min(covered, float(np.mean(np.min(d, axis=1) <= {gap})))
+        covered = min(covered, float(np.mean({least} <= {gap})))
     if covered >= {frac}:
-        return True, "the rope has closed the opening for {win} s (at least %.0f%% of it within {gap} m of a resting bead)" % (100 * covered), covered - {frac} + 0.5 / {n}
-    return False, "the opening of the square is not enclosed steadily: over the last {win} s as little as %.0f%% of it was within {gap} m of a resting rope bead" % (100 * covered), covered - {frac} + 0.5 / {n}
+        return True, "the rope has closed the opening for {win} s (at least %.0f%% of it within {gap} m of a resting bead){count}, covered - {frac} + 0.5 / {n}
+    return False, "the opening of the square is not enclosed steadily: over the last {win} s as little as %.0f%% of it was within {gap} m of a resting rope bead{count}, covered - {frac} + 0.5 / {n}
 """
     return check_fn(c, body)
 
