@@ -113,3 +113,43 @@ def test_non_finite_margin_or_non_bool_ok_is_a_fault(scene):
         a, b = sb.evaluate(scene, None, None, 0.0)
     assert a.fault and not a.ok and "not finite" in a.reason
     assert b.fault and not b.ok and "ok must be a bool" in b.reason
+
+
+SET_CHECK = '''
+def check_enough_in(E, H, t):
+    present = [i for i in (1, 2, 3, 4) if i in E]
+    n = count_in_polygon([E[i] for i in present], E[0])
+    if n >= 2:
+        return True, "%d of the blocks seen are inside" % n, n - 1.5
+    return False, "only %d of the blocks seen are inside" % n, n - 1.5
+'''
+
+
+def test_a_check_over_monotone_members_runs_on_the_members_given():
+    """The agent runs a check whose monotone members are stale on the elements seen (``Constraint.monotone``): the
+    sandbox takes frames with fewer elements than the program started with, and the full set again after."""
+    from code_as_monitor.core.elements import ElementSpec
+
+    parts = [ElementSpec("zone", "zone", "surface", "surface")] + [ElementSpec(f"b{i}", f"block_{i}") for i in range(4)]
+    c = Constraint("enough_in", "at least 2 blocks in the zone", Phase.UPON, parts, element_ids=[0, 1, 2, 3, 4],
+                   monotone=[f"block_{i}" for i in range(4)])
+    zone = np.array([[0, 0, 0], [0.2, 0, 0], [0.2, 0.2, 0], [0, 0.2, 0]], float)
+    pts = {0: zone, 1: np.array([[0.05, 0.05, 0.01]]), 2: np.array([[0.1, 0.1, 0.01]]),
+           3: np.array([[0.5, 0.5, 0.01]]), 4: np.array([[0.15, 0.1, 0.01]])}
+    H = {i: np.stack([p, p]) for i, p in pts.items()}
+    ht = np.array([0.0, 0.1])
+
+    def without(*gone):
+        return {i: p for i, p in pts.items() if i not in gone}, {i: h for i, h in H.items() if i not in gone}
+
+    assert c.monotone_element_ids() == {1, 2, 3, 4}
+    with MonitorRuntime(deadline_s=0.5, n_perturbations=16) as rt:
+        assert rt.start(SET_CHECK, [c], pts, H, ht, 0.1).ok
+        (v,) = rt.step(pts, H, ht, 0.2)
+        assert v.ok and not v.fault and v.reason.startswith("3 of")
+        (v,) = rt.step(*without(2, 4), ht, 0.3)
+        assert not v.ok and not v.fault and "only 1" in v.reason
+        (v,) = rt.step(*without(4), ht, 0.4)
+        assert v.ok and not v.fault and v.reason.startswith("2 of")
+        (v,) = rt.step(pts, H, ht, 0.5)
+        assert v.ok and v.reason.startswith("3 of")
