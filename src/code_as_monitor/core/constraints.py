@@ -29,6 +29,12 @@ class Phase(str, Enum):
             raise ConfigError(f"unknown phase {value!r}; expected 'during' or 'upon'") from None
 
 
+def unknown_members(monotone: list[str], parts: list[Any]) -> list[str]:
+    """The entries of a ``monotone`` list that name none of ``parts`` (each with ``name`` and ``obj``)."""
+    known = {p.name for p in parts} | {p.obj for p in parts}
+    return [m for m in monotone if m not in known]
+
+
 @dataclass
 class Constraint:
     """One textual constraint with the parts it involves.
@@ -63,18 +69,22 @@ class Constraint:
         if not _ID_RE.match(self.id):
             raise ConfigError(f"constraint id {self.id!r} is not a valid identifier")
         self.phase = Phase.parse(self.phase)
-        known = {p.name for p in self.parts} | {p.obj for p in self.parts}
-        bad = [m for m in self.monotone if m not in known]
+        bad = unknown_members(self.monotone, self.parts)
         if bad:
+            known = sorted({p.name for p in self.parts} | {p.obj for p in self.parts})
             raise ConfigError(f"constraint {self.id!r}: monotone entries {bad} name none of its parts "
-                              f"(part names or objects: {sorted(known)})")
+                              f"(part names or objects: {known})")
+
+    def monotone_ids(self, ids: list[int]) -> list[int]:
+        """Of ``ids`` (one element id per part, parts order), those of the parts named in :attr:`monotone`."""
+        names = set(self.monotone)
+        return [int(i) for p, i in zip(self.parts, ids) if p.name in names or p.obj in names]
 
     def monotone_element_ids(self) -> set[int]:
         """Element ids of the parts named in :attr:`monotone` (needs ``element_ids`` filled, parts order)."""
         if not self.monotone or len(self.element_ids) != len(self.parts):
             return set()
-        names = set(self.monotone)
-        return {int(i) for p, i in zip(self.parts, self.element_ids) if p.name in names or p.obj in names}
+        return set(self.monotone_ids(self.element_ids))
 
     @property
     def function_name(self) -> str:

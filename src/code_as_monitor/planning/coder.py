@@ -153,8 +153,7 @@ def _constraint_entry(c: Constraint, ids: list[int]) -> dict:
     entry: dict = {"id": c.id, "text": c.text, "phase": c.phase.value, "thresholds": dict(c.thresholds),
                    "element_ids": ids}
     if c.monotone:
-        names = set(c.monotone)
-        entry["monotone"] = [i for p, i in zip(c.parts, ids) if p.name in names or p.obj in names]
+        entry["monotone"] = c.monotone_ids(ids)
     return entry
 
 

@@ -21,7 +21,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 
-from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal
+from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal, unknown_members
 from code_as_monitor.core.elements import ElementKind, ElementSpec
 from code_as_monitor.core.errors import VLMOutputError
 
@@ -68,8 +68,7 @@ class ConstraintOut(BaseModel):
 
     @model_validator(mode="after")
     def _monotone_names_parts(self) -> ConstraintOut:
-        known = {p.name for p in self.parts} | {p.obj for p in self.parts}
-        bad = [m for m in self.monotone if m not in known]
+        bad = unknown_members(self.monotone, self.parts)
         if bad:
             raise ValueError(f"monotone entries {bad} name none of the constraint's parts or their objects")
         return self
