@@ -196,7 +196,8 @@ def check_path_coverage(
         seen: set[tuple[str, str]] = set()
         overruns = 0
         outcomes = {c.id: (0, 0) for c in constraints}
-        probes = make_probes(elements, history, history_t, t, n_perturbations, seed, groups=part_groups(constraints))
+        probes = make_probes(elements, history, history_t, t, n_perturbations, seed, groups=part_groups(constraints),
+                             related=[[int(i) for i in c.element_ids] for c in constraints])
         for k, probe in enumerate(probes):
             restarts = sandbox.n_restarts
             verdicts = sandbox.evaluate(probe.elements, probe.history, probe.history_t, t, deadline_s=deadline)

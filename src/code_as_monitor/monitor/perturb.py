@@ -7,14 +7,15 @@ static, moving, turning (a line or surface that rotated into its current pose), 
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
 up to the suction tip), departures (one element moved away since the oldest frame while the others stayed:
 a block knocked off the gripper's path) and placements (one element put just above another: a block over
-its target). Elements of one object part (``groups``: several point elements when lines and surfaces are
-handed over as unconnected points) move together in the meetings, departures and placements and turn together
-in turning histories, as the part they stand for would.
+its target; pairs that one constraint names together at several heights). Elements of one object part
+(``groups``: several point elements when lines and surfaces are handed over as unconnected points) move together
+in the meetings, departures and placements and turn together in turning histories, as the part they stand for would.
 Every array is world frame, metres; times are seconds.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -110,18 +111,29 @@ the gripper at the object (a re-grasp), no other probe moves one element's curre
 MAX_PLACEMENTS = 30
 """Placement probes (element i put just above element j) added after the meetings, last: a check that a
 block ends up over its target is only True near that configuration, which random translations of a few
-decimetres rarely reach. All ordered pairs up to this many, else a seeded sample of pairs."""
+decimetres rarely reach. All ordered pairs up to this many, else a seeded sample of pairs; pairs a constraint names
+together (``related``) come first."""
+
+PLACEMENT_HEIGHTS = 3
+"""Placements per ordered pair of elements that one constraint names together, at heights drawn from as many equal
+strata of the 1-6 cm range: one draw per pair can miss a check's own height band (a block's centre 2-6 cm above the
+one below), and a check then read "can never be satisfied" is rejected, although it only says the world is far from
+it (a tower that already fell). Other pairs get one placement each."""
+PLACEMENT_LIFT = (0.01, 0.06)
+"""Range of a placement's gap (m) between the top of the element below and the bottom of the one put above."""
 
 
 def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] | None,
                 history_t: np.ndarray | None, t: float, n: int, seed: int = 0,
-                groups: dict[int, list[int]] | None = None) -> list[Probe]:
+                groups: dict[int, list[int]] | None = None,
+                related: list[list[int]] | None = None) -> list[Probe]:
     """The unperturbed state first, then ``n`` perturbations cycling through the families above, then the
     turning histories (:data:`TURNS_PER_ELEMENT`), the meetings (:data:`MAX_MEETINGS`), the departures
     (:data:`DEPARTURES_PER_ELEMENT` per element or part) and the placements
     (:data:`MAX_PLACEMENTS`). ``groups``: element id -> the ids of its object part (itself included; None or a
     missing id: the element alone); a meeting or placement moves an element's whole group rigidly, except
-    between two elements of one group."""
+    between two elements of one group. ``related``: the element ids of each constraint; ordered pairs within one
+    get :data:`PLACEMENT_HEIGHTS` placements each, before the other pairs."""
     base = normalise_state(elements, history, history_t, t)
     probes = [Probe("the current state (unperturbed)", *base)]
     ids = sorted(base[0])
@@ -264,16 +276,48 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     movers = sorted({tuple(sorted(k for k in (groups or {}).get(i, [i]) if k in base[0]) or [i]) for i in ids})
     probes += [departure(list(g)) for g in movers for _ in range(DEPARTURES_PER_ELEMENT)]
     place_rng = np.random.default_rng([seed, 3])  # a stream of its own
-    pairs = [(i, j) for i in ids for j in ids if i != j]
-    if len(pairs) > MAX_PLACEMENTS:
-        pairs = [pairs[k] for k in sorted(place_rng.choice(len(pairs), MAX_PLACEMENTS, replace=False))]
-    for i, j in pairs:
-        gi, gj = group_pair(i, j)
-        Pi, Pj = points_of(base[0], gi), points_of(base[0], gj)
-        top = Pj[:, 2].max()
-        lift = place_rng.uniform(0.01, 0.06)
-        o = Pj.mean(axis=0) - Pi.mean(axis=0)
-        o[2] = top + lift - Pi[:, 2].min()
-        probes.append(Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
-                            *_map_elements(base, {k: lambda p, o=o: p + o for k in gi})))
+    probes += [_placement(base, i, j, group_pair(i, j), lift)
+               for i, j, lift in _placement_plan(ids, related, groups, place_rng)]
     return probes
+
+
+def _related_pairs(ids: list[int], related: list[list[int]] | None,
+                   groups: dict[int, list[int]] | None) -> set[tuple[int, int]]:
+    """Ordered pairs of present elements that one constraint names together (not two points of one part)."""
+    present = set(ids)
+    out: set[tuple[int, int]] = set()
+    for members in related or []:
+        m = [int(k) for k in members if int(k) in present]
+        out |= {(a, b) for a in m for b in m if a != b and b not in (groups or {}).get(a, [a])}
+    return out
+
+
+def _placement_plan(ids: list[int], related: list[list[int]] | None, groups: dict[int, list[int]] | None,
+                    rng: np.random.Generator) -> list[tuple[int, int, float]]:
+    """(element put above, element below, gap in m) of every placement probe: at most :data:`MAX_PLACEMENTS` pairs,
+    those a constraint names together first with :data:`PLACEMENT_HEIGHTS` stratified gaps each, then a seeded
+    sample of the others with one gap each."""
+    close = _related_pairs(ids, related, groups)
+    first = [(i, j) for i in ids for j in ids if (i, j) in close]
+    rest = [(i, j) for i in ids for j in ids if i != j and (i, j) not in close]
+    if len(first) > MAX_PLACEMENTS:
+        first = [first[k] for k in sorted(rng.choice(len(first), MAX_PLACEMENTS, replace=False))]
+    room = MAX_PLACEMENTS - len(first)
+    if len(rest) > room:
+        rest = [rest[k] for k in sorted(rng.choice(len(rest), room, replace=False))] if room > 0 else []
+    lo, hi = PLACEMENT_LIFT
+    edges = np.linspace(lo, hi, PLACEMENT_HEIGHTS + 1)
+    plan = [(i, j, float(rng.uniform(a, b))) for i, j in first for a, b in itertools.pairwise(edges)]
+    return plan + [(i, j, float(rng.uniform(lo, hi))) for i, j in rest]
+
+
+def _placement(base: State, i: int, j: int, pair: tuple[list[int], list[int]], lift: float) -> Probe:
+    """Element ``i`` (with its group ``pair[0]``) moved rigidly so that its lowest point is ``lift`` above the
+    highest point of ``j`` (its group ``pair[1]``), centred on it horizontally."""
+    gi, gj = pair
+    Pi = np.concatenate([base[0][k] for k in gi], axis=0)
+    Pj = np.concatenate([base[0][k] for k in gj], axis=0)
+    o = Pj.mean(axis=0) - Pi.mean(axis=0)
+    o[2] = Pj[:, 2].max() + lift - Pi[:, 2].min()
+    return Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
+                 *_map_elements(base, {k: lambda p, o=o: p + o for k in gi}))
