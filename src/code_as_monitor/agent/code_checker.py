@@ -65,6 +65,7 @@ class CodeChecker(SubgoalCompletion):
         self.on_prompt = on_prompt
         self._settling = False
         self._unwatched = False
+        self._upon: list[Any] = []
         self._known: dict = {}  # (object, part, kind) -> KnownElement: where the tracker last had each part
         # The last judged frame: (t, element id -> (k, 3) points, stale ids, element id -> the least support its tracker
         # reported since its last measurement (inf: a measurement), element id -> the measurement that replaced it).

@@ -6,7 +6,9 @@ if they hold on re-measured elements too (:meth:`SubgoalCompletion._confirm`); a
 check not holding is judged on re-measured elements over up to ``settle_frames`` more frames
 (:meth:`SubgoalCompletion._settle`). Re-measured (:meth:`SubgoalCompletion._refreshed`): an element the tracker
 saw move this subgoal is painted again from the current frame; one at rest keeps its measurement from the
-subgoal's start unless that one was weak.
+subgoal's start unless that one was weak. When the planner calls the task complete, the last subgoal's upon checks
+are judged once more on the scene at rest (:meth:`SubgoalCompletion.follow`, :meth:`SubgoalCompletion.at_rest`): a
+book that passed "standing" while it was still tipping over has fallen by then.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ class SubgoalCompletion:
     _settling: bool
     _settle_attempt: int
     _settle_next: float
+    _unwatched: bool
     _fold_support: Callable[[Any, set[int]], None]
     _end_of: Callable[..., SubgoalEnd]
 
@@ -195,3 +198,35 @@ class SubgoalCompletion:
             return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason}")
         return self._end_of("reactive_failure", "no verdict on the upon checks (faults or lost elements)")
 
+
+    # --- the task is called complete: the last subgoal's upon checks once more, on the scene at rest -------------
+    def follow(self, obs: Observation) -> None:
+        """Track one frame after the last subgoal ended, while the monitor waits for the scene to come to rest before
+        it calls the task complete: the elements keep being followed and the history grows, so :meth:`at_rest`
+        judges the scene as it settled (nothing happens without an upon check to judge)."""
+        if self._unwatched or not self._upon:
+            return
+        tr = self.tracker.step(obs)
+        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        self._history.push(obs.t, tr.points)
+
+    def at_rest(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
+        """The last subgoal's upon checks on the scene at rest (re-measured as :meth:`_confirm` does); None when they
+        hold or have no verdict (an element unseen now does not undo a completion judged before), else a reactive
+        failure whose first violated check is raised as an alarm (the planner re-plans on it)."""
+        if self._unwatched or not self._upon:
+            return None
+        tr = self.tracker.step(obs)
+        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        points, stale, _, measured = self._refreshed(obs, tr, ctx, confirming=True)
+        self._history.push(obs.t, points)
+        verdicts = self._upon_verdicts(points, {i for i, st in stale.items() if np.any(st)}, obs.t)
+        bad = [v for v in verdicts if not v.ok]
+        ctx.emit("rest_check", t=obs.t, ok=not bad, remeasured=sorted(measured),
+                 verdicts=[v.to_dict() for v in verdicts])
+        if not bad:
+            return None
+        v = bad[0]
+        ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, obs.t)
+        return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason} (once the scene came to rest after "
+                                                "the subgoal ended)")

@@ -75,6 +75,7 @@ class AgentConfig:
     rest_still_frames: int = 2
     rest_depth_tol: float = 0.005
     rest_noise_k: float = 5.0
+    check_done_at_rest: bool = True
     checks: str = "all"
 
     def __post_init__(self) -> None:

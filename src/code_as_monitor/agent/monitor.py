@@ -11,6 +11,8 @@ observation and it could not start each time (nothing moved in between, so nothi
 After a halt or a failed subgoal the monitor re-plans once the scene has come to rest
 (:class:`~code_as_monitor.agent.rest.RestWait`: the depth images stop changing, at most ``max_s``): the
 halting decision then carries no action, and a later frame's ``start`` decision carries the re-planned one.
+When the planner calls the task complete after a subgoal that succeeded, the checker (if it has ``follow`` and
+``at_rest``) judges that subgoal's upon checks again once the scene is at rest: a violation is re-planned on.
 
 The caller owns the policy and the clock. Each frame it hands over an
 :class:`~code_as_monitor.core.observation.Observation` and whether the policy has finished its
@@ -85,6 +87,7 @@ class Monitor:
         time_limit_s: no new subgoal is planned at or after this time (observation seconds); None: none.
         cameras: view names to use; None: every view of the observation.
         rest: when to re-plan after a failure (:class:`~code_as_monitor.agent.rest.RestWait`); None: at once.
+        check_done_at_rest: judge the last subgoal's upon checks again at rest before calling the task complete.
         on_event: ``fn(kind, **fields)`` for the event log.
         usage: the planner's token meter (``calls``, ``episode()``), reported by :attr:`usage`.
         owned: objects closed by :meth:`close` (the sandbox runtime of :meth:`from_config`).
@@ -92,7 +95,7 @@ class Monitor:
 
     def __init__(self, planner: Any, checker: SubgoalChecker, *, max_replans: int = DEFAULT_MAX_REPLANS,
                  max_subgoals: int = DEFAULT_MAX_SUBGOALS, max_same_start: int = DEFAULT_MAX_SAME_START,
-                 time_limit_s: float | None = None, rest: RestWait | None = None,
+                 time_limit_s: float | None = None, rest: RestWait | None = None, check_done_at_rest: bool = True,
                  cameras: list[str] | None = None, on_event: EventFn | None = None, usage: Any = None,
                  owned: list[Any] | None = None) -> None:
         if max_replans < 0:
@@ -108,13 +111,14 @@ class Monitor:
         self.max_same_start = max_same_start
         self.time_limit_s = time_limit_s
         self.rest = rest if rest is not None else NO_WAIT
+        self.check_done_at_rest = check_done_at_rest
         self.cameras = list(cameras) if cameras else None
         self.emit: EventFn = on_event or _noop_event
         self.usage = usage
         self._owned = list(owned or [])
         self._ctx = MonitorContext(self)
         self.episode = EpisodeLog("")
-        self._state = "idle"  # idle -> plan -> run -> (rest ->) plan -> ... -> over
+        self._state = "idle"  # idle -> plan -> run -> (rest ->) plan -> ... -> (done-rest ->) over
         self._rest_t0 = self._rest_next = 0.0
         # view -> depth at the start of the current still streak: a slow slide adds up against it
         self._rest_ref: dict[str, np.ndarray] | None = None
@@ -139,7 +143,7 @@ class Monitor:
         stages = build_stages(config, on_frame=on_frame, on_prompt=on_prompt, backend=backend, skills=skills)
         return cls(stages.planner, stages.checker, max_replans=config.max_replans, max_subgoals=config.max_subgoals,
                    max_same_start=config.max_same_start, time_limit_s=config.time_limit_s,
-                   rest=config.rest_wait(), cameras=config.cameras,
+                   rest=config.rest_wait(), check_done_at_rest=config.check_done_at_rest, cameras=config.cameras,
                    on_event=on_event, usage=stages.planner.usage, owned=[stages.runtime])
 
     # ------------------------------------------------------------------------------------------------
@@ -170,7 +174,7 @@ class Monitor:
             raise ObservationError(f"Monitor.frame_due: t must be a finite number of seconds, got {t!r}")
         if self._state == "run":
             return self.checker.frame_due(t, policy_done)
-        if self._state == "rest":
+        if self._state in ("rest", "done-rest"):
             return t + 1e-9 >= self._rest_next
         return self._state == "plan"
 
@@ -197,7 +201,7 @@ class Monitor:
         self._frame_alarms = []
         if self._state == "plan":
             return self._plan(obs, DecisionKind.START, halt=False, ended=None)
-        if self._state == "rest":
+        if self._state in ("rest", "done-rest"):
             return self._rest_step(obs)
         if not self.checker.frame_due(obs.t, policy_done):
             return Decision(DecisionKind.CONTINUE, obs.t, subgoal=self._subgoal)
@@ -213,10 +217,7 @@ class Monitor:
         if wait and self._holding(obs):
             self.emit("rest", t=obs.t, waited_s=0.0, at_rest=False, skipped="an object is in hand")
         elif wait:
-            self._state = "rest"
-            self._subgoal = None
-            self._rest_t0, self._rest_ref, self._rest_still = obs.t, self.rest.depths(obs), 0
-            self._rest_next = obs.t + self.rest.period_s
+            self._wait_for_rest(obs, "rest")
             return Decision(kind, obs.t, halt=end.halt, violations=list(self._frame_alarms), ended=record,
                             reason=record.reason)
         return self._plan(obs, kind, halt=end.halt, ended=record)
@@ -245,6 +246,11 @@ class Monitor:
         self.close()
 
     # ------------------------------------------------------------------------------------------------
+    def _wait_for_rest(self, obs: Observation, state: str) -> None:
+        self._state, self._subgoal = state, None
+        self._rest_t0, self._rest_ref, self._rest_still = obs.t, self.rest.depths(obs), 0
+        self._rest_next = obs.t + self.rest.period_s
+
     def _select_views(self, obs: Observation) -> Observation:
         if self.cameras is None:
             return obs
@@ -264,6 +270,7 @@ class Monitor:
         if obs.t + 1e-9 < self._rest_next:
             return Decision(DecisionKind.CONTINUE, obs.t)
         self._rest_next = obs.t + self.rest.period_s
+        done = self._state == "done-rest"
         now = self.rest.depths(obs)
         if self._rest_ref is not None and self.rest.still(self._rest_ref, now):
             self._rest_still += 1
@@ -272,11 +279,27 @@ class Monitor:
         waited = obs.t - self._rest_t0
         at_rest = self._rest_still >= self.rest.still_frames
         if not at_rest and waited + 1e-9 < self.rest.max_s:
+            if done:
+                self.checker.follow(obs)  # type: ignore[attr-defined]
             return Decision(DecisionKind.CONTINUE, obs.t)
-        self.emit("rest", t=obs.t, waited_s=round(waited, 4), at_rest=at_rest)
+        self.emit("done_rest" if done else "rest", t=obs.t, waited_s=round(waited, 4), at_rest=at_rest)
         self._rest_ref = None
         self._state = "plan"
-        return self._plan(obs, DecisionKind.START, halt=False, ended=None)
+        if not done:
+            return self._plan(obs, DecisionKind.START, halt=False, ended=None)
+        end = self.checker.at_rest(obs, self._ctx)  # type: ignore[attr-defined]
+        if end is None:
+            return self._complete(obs.t, halt=False, ended=None)
+        self._subgoal = self._previous
+        record = self._end_subgoal(end, obs.t)  # the last subgoal again, failed on the resting scene
+        return self._over(obs.t, halt=False, ended=record) if self._state == "over" \
+            else self._plan(obs, DecisionKind.SUBGOAL_FAILED, halt=False, ended=record)
+
+    def _complete(self, t: float, halt: bool, ended: SubgoalRecord | None) -> Decision:
+        self.episode.finished = True
+        self.episode.stop_reason = "planner: task complete"
+        self.emit("task_complete", t=t)
+        return self._over(t, halt=halt, ended=ended, kind=DecisionKind.TASK_DONE)
 
     def _plan(self, obs: Observation, kind: DecisionKind, halt: bool, ended: SubgoalRecord | None) -> Decision:
         """Plan subgoals on ``obs`` until one starts (or the episode ends)."""
@@ -299,10 +322,13 @@ class Monitor:
                 self.emit("planner_error", t=obs.t, error=str(exc))
                 return self._over(obs.t, halt=halt, ended=ended)
             if subgoal.done:
-                ep.finished = True
-                ep.stop_reason = "planner: task complete"
-                self.emit("task_complete", t=obs.t)
-                return self._over(obs.t, halt=halt, ended=ended, kind=DecisionKind.TASK_DONE)
+                if not (self.check_done_at_rest and self.rest.enabled and self._feedback == SUCCESS_FEEDBACK
+                        and callable(getattr(self.checker, "at_rest", None))):
+                    return self._complete(obs.t, halt, ended)
+                self.emit("task_complete_claimed", t=obs.t, checking="the last subgoal's upon checks at rest")
+                self._wait_for_rest(obs, "done-rest")
+                return Decision(kind, obs.t, halt=halt, violations=list(self._frame_alarms), ended=ended,
+                                reason=ended.reason if ended is not None else "")
             self.emit("subgoal", t=obs.t, index=self._index, subgoal=subgoal.to_dict())
             self._subgoal = subgoal
             self._t0 = obs.t
