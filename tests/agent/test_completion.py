@@ -12,7 +12,9 @@ from loop_fakes import RULES, Coder, History, MovePolicy, Painter, Planner, Runt
 
 from code_as_monitor.agent.code_checker import CodeChecker
 from code_as_monitor.agent.config import AgentConfig
+from code_as_monitor.agent.decision import DecisionKind
 from code_as_monitor.agent.monitor import Monitor
+from code_as_monitor.agent.rest import RestWait
 from code_as_monitor.core import Element
 from code_as_monitor.core.elements import ElementSupport
 
@@ -74,3 +76,49 @@ def test_a_block_that_did_arrive_completes_and_halts_the_policy_early() -> None:
     confirmed = [f for k, f in events if k == "completion_check" and f["confirmed"]]
     assert confirmed and [k for k, _ in events if k == "early_halt"]
     assert any(d.halt for d in decisions)
+
+
+class LingeringPolicy(MovePolicy):
+    """Moves the block to ``stop_at``, then holds still for ``linger_s`` before it reports done."""
+
+    def __init__(self, world: World, stop_at: float, linger_s: float) -> None:
+        super().__init__(world, stop_at=stop_at)
+        self.linger_s, self._still_since = linger_s, None
+
+    def step(self) -> None:
+        was_done = self._done
+        super().step()
+        if was_done or not self._done:
+            return
+        if self._still_since is None:
+            self._still_since = self.w.t
+        if self.w.t - self._still_since < self.linger_s:
+            self._done = False  # still "running": the block stays where it is
+
+
+class ShortHistory(History):
+    """The fakes' history, keeping only the last ``n`` frames (as the real one, ``history_len``)."""
+
+    def __init__(self, n: int) -> None:
+        super().__init__(n)
+        self.n = n
+
+    def push(self, t, pts) -> None:
+        super().push(t, pts)
+        del self.items[:-self.n]
+
+
+def test_an_element_moved_early_in_a_subgoal_longer_than_the_history_is_not_taken_for_one_at_rest() -> None:
+    """A history of 3 frames (0.3 s) on a subgoal that moved the block 25 cm and then held it still for 1 s: over the
+    history the block did not move, but it is 25 cm from where it was painted at the subgoal's start, so it is not
+    "at rest all along" and its start measurement does not stand in for it (that measurement failed the check)."""
+    w = World()
+    checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), ShortHistory,
+                          AgentConfig(halt_on_upon=False, history_len=3))
+    events: list = []
+    m = Monitor(Planner([_subgoal("move block", during=False)]), checker, max_replans=0, rest=RestWait(max_s=1.0),
+                on_event=lambda k, **f: events.append((k, f)))
+    decisions = user_loop(m, w, LingeringPolicy(w, stop_at=0.25, linger_s=1.0))
+    assert [s.outcome for s in m.episode.subgoals] == ["success"]
+    assert [f["ok"] for k, f in events if k == "rest_check"] == [True], "judged where the block is, not at x = 0"
+    assert decisions[-1].kind is DecisionKind.TASK_DONE

@@ -91,7 +91,11 @@ class SubgoalCompletion:
         for e in self._elements:
             if e.owner[0] == "robot" or e.id not in H0:
                 continue
-            moved = np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0))
+            # moved over the history, or away from its measurement: the history holds the last ``history_len``
+            # frames only, so on a long subgoal its oldest frame is not the subgoal's start (a rope bead dragged
+            # early and still since is not "at rest all along", and its start measurement is not where it is)
+            moved = max(np.linalg.norm(H0[e.id][-1].mean(axis=0) - H0[e.id][0].mean(axis=0)),
+                        np.linalg.norm(np.asarray(points[e.id]).mean(axis=0) - e.points.mean(axis=0)))
             if moved <= self.cfg.refresh_motion:
                 # at rest all along: its measurement from the subgoal start, unless that one was weak (kept, it is
                 # as good as the tracker that says it rested: its tracked support stays; re-measured, it is new)
