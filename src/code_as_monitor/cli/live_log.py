@@ -48,6 +48,11 @@ class LiveLog:
             c.print(f"{ts}[{colour}]{ev['outcome']}[/]  [dim]{ev['reason'][:160]}[/]")
             if ev["outcome"] != "success":
                 c.print("          [yellow]re-planning with this failure as feedback[/]")
+        elif k == "task_complete_claimed":
+            c.print(f"{ts}[dim]the planner calls the task complete: judging the last subgoal again at rest[/]")
+        elif k == "rest_check":
+            word = "[green]still holds at rest[/]" if ev["ok"] else "[red]no longer holds at rest[/]"
+            c.print(f"{ts}{word}")
         elif k == "program_fault" and self.verbose:
             c.print(f"{ts}[yellow]program fault[/] {ev['constraint_id']}: {ev['reason']}")
         elif k == "verdicts_unknown" and self.verbose and ev["constraints"]:
