@@ -35,7 +35,10 @@ class SubgoalChecker(Protocol):
 
     Optional: ``holding(obs) -> bool``, whether the robot holds one of the watched objects when a subgoal ends in
     failure (the monitor then re-plans without waiting for the scene to rest); a checker without it is taken to say
-    no."""
+    no. Optional, together: ``follow(obs)`` and ``at_rest(obs, ctx) -> SubgoalEnd | None``, for the check before the
+    task is called complete (the monitor waits for rest, handing each frame to ``follow``, then asks ``at_rest``
+    whether the last subgoal still holds; None: it does); a checker without ``at_rest`` is taken at the planner's
+    word."""
 
     def start_episode(self, obs: Observation) -> None:
         """Called with the episode's first observation (the one the first subgoal is planned on)."""
