@@ -15,10 +15,12 @@ from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.decision import DecisionKind
 from code_as_monitor.agent.monitor import Monitor
 from code_as_monitor.agent.rest import RestWait
-from code_as_monitor.core import Element
+from code_as_monitor.core import Element, Observation, View
+from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.elements import ElementSupport
 
 DRIFT = 0.03
+CAM = CameraModel.look_at("front", np.array([1.0, 0, 1]), np.zeros(3), 64, 48, 60.0)
 
 
 class DriftingTracker(Tracker):
@@ -108,11 +110,22 @@ class ShortHistory(History):
         del self.items[:-self.n]
 
 
+class StirredWorld(World):
+    """The fake world with one depth view in which something that is not an element (a cable, a hand) moves at
+    2.2-2.6 s, so the wait for rest before the task is called complete sees motion and judges again."""
+
+    def observe(self) -> Observation:
+        d = np.full((48, 64), 1.0, np.float32)
+        col = 5 + int(20 * min(max(self.t - 2.2, 0.0), 0.4))
+        d[30:36, col:col + 6] = 0.9
+        return Observation(t=self.t, views={"front": View(np.zeros((48, 64, 3), np.uint8), d, CAM)}, objects=["block"])
+
+
 def test_an_element_moved_early_in_a_subgoal_longer_than_the_history_is_not_taken_for_one_at_rest() -> None:
     """A history of 3 frames (0.3 s) on a subgoal that moved the block 25 cm and then held it still for 1 s: over the
     history the block did not move, but it is 25 cm from where it was painted at the subgoal's start, so it is not
     "at rest all along" and its start measurement does not stand in for it (that measurement failed the check)."""
-    w = World()
+    w = StirredWorld()
     checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), ShortHistory,
                           AgentConfig(halt_on_upon=False, history_len=3))
     events: list = []

@@ -122,7 +122,7 @@ class Monitor:
         self._rest_t0 = self._rest_next = 0.0
         # view -> depth at the start of the current still streak: a slow slide adds up against it
         self._rest_ref: dict[str, np.ndarray] | None = None
-        self._rest_still = 0
+        self._rest_still, self._rest_moved = 0, False  # still frames in a row; moved since the wait began
         self._frame_alarms: list[Alarm] = []
         self._subgoal: Subgoal | None = None
         self._previous: Subgoal | None = None
@@ -248,7 +248,7 @@ class Monitor:
     # ------------------------------------------------------------------------------------------------
     def _wait_for_rest(self, obs: Observation, state: str) -> None:
         self._state, self._subgoal = state, None
-        self._rest_t0, self._rest_ref, self._rest_still = obs.t, self.rest.depths(obs), 0
+        self._rest_t0, self._rest_ref, self._rest_still, self._rest_moved = obs.t, self.rest.depths(obs), 0, False
         self._rest_next = obs.t + self.rest.period_s
 
     def _select_views(self, obs: Observation) -> Observation:
@@ -275,7 +275,7 @@ class Monitor:
         if self._rest_ref is not None and self.rest.still(self._rest_ref, now):
             self._rest_still += 1
         else:
-            self._rest_ref, self._rest_still = now, 0
+            self._rest_ref, self._rest_still, self._rest_moved = now, 0, True
         waited = obs.t - self._rest_t0
         at_rest = self._rest_still >= self.rest.still_frames
         if not at_rest and waited + 1e-9 < self.rest.max_s:
@@ -287,7 +287,8 @@ class Monitor:
         self._state = "plan"
         if not done:
             return self._plan(obs, DecisionKind.START, halt=False, ended=None)
-        end = self.checker.at_rest(obs, self._ctx)  # type: ignore[attr-defined]
+        # unmoved since the claim, it is the scene the completion was judged on: again would re-sample the noise
+        end = self.checker.at_rest(obs, self._ctx) if self._rest_moved else None  # type: ignore[attr-defined]
         if end is None:
             return self._complete(obs.t, halt=False, ended=None)
         self._subgoal = self._previous
@@ -296,8 +297,7 @@ class Monitor:
             else self._plan(obs, DecisionKind.SUBGOAL_FAILED, halt=False, ended=record)
 
     def _complete(self, t: float, halt: bool, ended: SubgoalRecord | None) -> Decision:
-        self.episode.finished = True
-        self.episode.stop_reason = "planner: task complete"
+        self.episode.finished, self.episode.stop_reason = True, "planner: task complete"
         self.emit("task_complete", t=t)
         return self._over(t, halt=halt, ended=ended, kind=DecisionKind.TASK_DONE)
 
