@@ -309,10 +309,8 @@ class CodeChecker(SubgoalCompletion):
     def _monitor_frame(self, obs: Observation, ctx: MonitorContext) -> tuple[list[Verdict], Any]:
         """Track, push the history, evaluate every check in the sandbox. Verdict events are written
         when a check's state (ok / violated / fault) changes, not every frame."""
-        tr = self.tracker.step(obs)
+        tr, stale_ids = self._track(obs)
         self._history.push(obs.t, tr.points)
-        stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
-        self._fold_support(tr, stale_ids)
         self._last = (obs.t, dict(tr.points), stale_ids, dict(self._tracked), {})
         if obs.robot is not None:  # where the tip was and which elements were fresh, for holding()
             self._tips.append((obs.t, obs.robot.tip, stale_ids))
@@ -324,6 +322,13 @@ class CodeChecker(SubgoalCompletion):
                 self._verdict_state[v.constraint_id] = state
                 ctx.emit("verdict", **v.to_dict())
         return verdicts, tr
+
+    def _track(self, obs: Observation) -> tuple[Any, set[int]]:
+        """One tracker step: its result and stale element ids, the supports folded in (every tracked frame)."""
+        tr = self.tracker.step(obs)
+        stale_ids = {i for i, st in tr.stale.items() if np.any(st)}
+        self._fold_support(tr, stale_ids)
+        return tr, stale_ids
 
     def _fold_support(self, tr: Any, stale_ids: set[int]) -> None:
         """Lower each element's least tracker support since its last measurement by this frame's report

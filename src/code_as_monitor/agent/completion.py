@@ -47,7 +47,7 @@ class SubgoalCompletion:
     _settle_attempt: int
     _settle_next: float
     _unwatched: bool
-    _fold_support: Callable[[Any, set[int]], None]
+    _track: Callable[[Observation], tuple[Any, set[int]]]
     _end_of: Callable[..., SubgoalEnd]
 
     # --- the policy has finished: judge the upon checks ---------------------------------------------------
@@ -178,8 +178,7 @@ class SubgoalCompletion:
     def _settle(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """One attempt at upon verdicts on re-measured elements; up to ``settle_frames`` more frames,
         one period apart, until every upon check has a verdict that is neither a fault nor stale."""
-        tr = self.tracker.step(obs)
-        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        tr, _ = self._track(obs)
         points, stale, tracked, measured = self._refreshed(obs, tr, ctx)
         self._history.push(obs.t, points)
         stale_ids = {i for i, st in stale.items() if np.any(st)}
@@ -210,8 +209,7 @@ class SubgoalCompletion:
         judges the scene as it settled (nothing happens without an upon check to judge)."""
         if self._unwatched or not self._upon:
             return
-        tr = self.tracker.step(obs)
-        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        tr, _ = self._track(obs)
         self._history.push(obs.t, tr.points)
 
     def at_rest(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
@@ -220,8 +218,7 @@ class SubgoalCompletion:
         failure whose first violated check is raised as an alarm (the planner re-plans on it)."""
         if self._unwatched or not self._upon:
             return None
-        tr = self.tracker.step(obs)
-        self._fold_support(tr, {i for i, st in tr.stale.items() if np.any(st)})
+        tr, _ = self._track(obs)
         points, stale, _, measured = self._refreshed(obs, tr, ctx, confirming=True)
         self._history.push(obs.t, points)
         verdicts = self._upon_verdicts(points, {i for i, st in stale.items() if np.any(st)}, obs.t)

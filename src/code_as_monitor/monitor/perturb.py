@@ -237,9 +237,6 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         gb = [i for i in (groups or {}).get(b, [b]) if i in base[0]] or [b]
         return ([a], [b]) if b in ga else (ga, gb)
 
-    def points_of(E: dict[int, np.ndarray], g: list[int]) -> np.ndarray:
-        return np.concatenate([E[i] for i in g], axis=0)
-
     def meeting(a: int, b: int) -> Probe:
         E0, H0, Ht0 = base
         ga, gb = group_pair(a, b)
@@ -248,7 +245,7 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
         E = {i: p.copy() for i, p in E0.items()}
         for i in gb:
             E[i] = E[i] + np.array([0.0, 0.0, lift])
-        o = points_of(E, gb).mean(axis=0) - points_of(E, ga).mean(axis=0) + np.array([0.0, 0.0, dz])
+        o = _points_of(E, gb).mean(axis=0) - _points_of(E, ga).mean(axis=0) + np.array([0.0, 0.0, dz])
         for i in ga:
             E[i] = E[i] + o
         H = {i: np.concatenate([h, E[i][None]]) for i, h in H0.items()}  # one frame more: the move
@@ -279,6 +276,11 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     probes += [_placement(base, i, j, group_pair(i, j), lift)
                for i, j, lift in _placement_plan(ids, related, groups, place_rng)]
     return probes
+
+
+def _points_of(E: dict[int, np.ndarray], g: list[int]) -> np.ndarray:
+    """The points (n, 3) of the elements ``g`` of state ``E``, stacked."""
+    return np.concatenate([E[i] for i in g], axis=0)
 
 
 def _related_pairs(ids: list[int], related: list[list[int]] | None,
@@ -315,8 +317,7 @@ def _placement(base: State, i: int, j: int, pair: tuple[list[int], list[int]], l
     """Element ``i`` (with its group ``pair[0]``) moved rigidly so that its lowest point is ``lift`` above the
     highest point of ``j`` (its group ``pair[1]``), centred on it horizontally."""
     gi, gj = pair
-    Pi = np.concatenate([base[0][k] for k in gi], axis=0)
-    Pj = np.concatenate([base[0][k] for k in gj], axis=0)
+    Pi, Pj = _points_of(base[0], gi), _points_of(base[0], gj)
     o = Pj.mean(axis=0) - Pi.mean(axis=0)
     o[2] = Pj[:, 2].max() + lift - Pi[:, 2].min()
     return Probe(f"element {i} placed {lift * 100:.0f} cm above element {j} (moved by {_fmt(o)} m)",
