@@ -214,3 +214,21 @@ def test_an_over_sweep_the_zone_recovers_from_is_benign_and_one_after_the_stop_i
     d = detection([_rec(0, True, 30.0, alarms=[capped], gt=gt)])
     assert (d["failures"], d["benign_events"], d["unmatched_per_ep"]) == (0, 1, 0.0)
     assert failures(_sweep_gt(final=26), t_stop=5.1) == []  # blocks in flight after the halt
+
+
+def test_a_misplacement_is_a_failure_of_its_own_unless_a_disturbance_of_that_action_caused_it():
+    pert = {"t": 4.75, "kind": "grasp_perturbed", "obj": "book"}
+    own = {"t": 7.25, "kind": "misplaced", "obj": "book", "target": "bookshelf"}
+    caused = {**own, "after": {"t": 4.75, "kind": "grasp_perturbed", "obj": "book"}}
+    assert [f["kind"] for f in failures([pert, own])] == ["grasp_perturbed", "misplaced"]
+    (f,) = failures([pert, caused])
+    assert f["kind"] == "grasp_perturbed" and f["objects"] == ["book", "book"]
+    # a cause that is not a failure (here: after the stop) leaves the misplacement standing on its own
+    orphan = {**own, "after": {"t": 4.75, "kind": "object_moved", "obj": "bookshelf"}}
+    assert [f["kind"] for f in failures([orphan])] == ["misplaced"]
+    # "book dropped" after the release detects it; the first round's rules did not count it
+    dropped = {"t": 7.5, "proactive": False, "objects": ["book", "bookshelf", "robot"]}
+    new = detection([_rec(0, True, 20.0, alarms=[dropped], gt=[own])])
+    old = detection_v1([_rec(0, True, 20.0, alarms=[dropped], gt=[own])])
+    assert (new["failures"], new["detected"], new["unmatched_per_ep"]) == (1, 1, 0.0)
+    assert (old["failures"], old["unmatched_per_ep"]) == (0, 1.0)

@@ -30,9 +30,10 @@ BENCH_DEADLINE_S = 0.5
 OPEN_LOOP_VIDEO_HZ = 2.0
 GT_KINDS = ("drop", "regrasped", "block_fell", "tower_collapsed", "placement_noise", "zone_count", "over_swept",
             "opening_enclosed", "opening_open", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped",
-            "pour_undone", "policy_failure")
+            "pour_undone", "policy_failure", "placed", "misplaced")
 """Ground-truth kinds kept in a record (robot bookkeeping events are left out to keep it compact)."""
-GT_KEYS = ("count", "target", "on", "on_target", "target_offset", "what", "objects", "band")
+GT_KEYS = ("count", "target", "on", "on_target", "target_offset", "what", "objects", "band", "after", "reason",
+           "judged_at")
 """Kind-specific keys kept with them: what the detection metrics read (a drop's target, where it landed)."""
 
 

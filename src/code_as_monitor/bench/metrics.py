@@ -15,9 +15,11 @@ the failures that matter: what would change the episode's outcome if nothing wer
   (the suction let an object go), ``tower_collapsed`` (a stacked block fell off) and the gripper tasks'
   one-shot disturbances (:mod:`code_as_monitor.sim.triggered`: ``object_moved``, ``grasp_perturbed``,
   ``object_knocked``, ``grasp_slipped``, ``pour_undone``), the RLBench-style tasks' ``policy_failure`` (the
-  noisy policy's own first failed skill; its ``objects`` are the objects that skill acted on) and the sweep's
+  noisy policy's own first failed skill; its ``objects`` are the objects that skill acted on), the sweep's
   ``over_swept`` (the zone first held more blocks than the task's success band accepts; its ``objects`` are
-  the zone and the blocks inside then, :mod:`code_as_monitor.sim.tasks.sweep_half`), except:
+  the zone and the blocks inside then, :mod:`code_as_monitor.sim.tasks.sweep_half`) and the gripper tasks'
+  ``misplaced`` (a placing skill let its object go and it came to rest out of place by the task's own test:
+  a book beside its shelf, or tipped over in it; :mod:`code_as_monitor.sim.placement`), except:
 
   * a drop that does not change the outcome: the object came to rest on the target it was being carried to,
     within the task's placement tolerance (``block_fell.on_target``), or the suction took it again within the
@@ -27,7 +29,9 @@ the failures that matter: what would change the episode's outcome if nothing wer
     credited nor false;
   * consequences, merged with their cause: ``block_fell`` belongs to its drop, and a ``tower_collapsed``
     between a drop and ``MERGE_S`` after the dropped object came to rest is the drop's doing (the falling
-    block knocked the tower); collapses within ``MERGE_S`` of each other count once;
+    block knocked the tower); collapses within ``MERGE_S`` of each other count once; a ``misplaced`` release whose
+    placing action a disturbance of the object or its target interrupted (its ``after``) is that disturbance's
+    doing;
   * events after the method stopped (the record's ``sim_time_s``): nothing it could still have detected.
 
   The rope has no discrete failure event (its failure is not stopping in time); its detection cells stay empty.
@@ -65,10 +69,10 @@ from typing import Any
 import numpy as np
 
 FAILURE_KINDS = ("drop", "tower_collapsed", "object_moved", "grasp_perturbed", "object_knocked", "grasp_slipped",
-                 "pour_undone", "policy_failure", "over_swept")
-V1_KINDS = tuple(k for k in FAILURE_KINDS if k != "over_swept")
-"""The failure kinds of :func:`detection_v1` (the over-sweep event came later; the first round had no sweep
-failures)."""
+                 "pour_undone", "policy_failure", "over_swept", "misplaced")
+V1_KINDS = tuple(k for k in FAILURE_KINDS if k not in ("over_swept", "misplaced"))
+"""The failure kinds of :func:`detection_v1` (the over-sweep and misplacement events came later; the first round
+had neither)."""
 EARLY_S = 0.25
 WINDOW_S = 5.0
 MERGE_S = 1.0
@@ -163,6 +167,13 @@ def failures(gt: list[dict[str, Any]], t_stop: float | None = None) -> list[dict
             res = _drop_resolution(gt, e)
             end = (res["t"] if res is not None else e["t"]) + MERGE_S
             windows.append((e["t"], end, f))
+        elif e["kind"] == "misplaced" and e.get("after"):
+            c = e["after"]
+            cause = next((x for x in out if x["t"] == c.get("t") and x["kind"] == c.get("kind")
+                          and x.get("obj") == c.get("obj")), None)
+            if cause is not None:  # the disturbance during the placing action put it out of place
+                cause["objects"].append(e.get("obj", ""))
+                continue
         elif e["kind"] == "tower_collapsed":
             cause = next((w for lo, hi, w in windows if lo <= e["t"] <= hi), None)
             if cause is not None:

@@ -22,6 +22,7 @@ from typing import Any
 
 from code_as_monitor.core.constraints import Action
 from code_as_monitor.sim.disturbances import apply_disturbances
+from code_as_monitor.sim.placement import PlacementWatch
 from code_as_monitor.sim.policies import ScriptedPolicy
 from code_as_monitor.sim.tasks.base import Task, TaskConfig, TaskResult
 from code_as_monitor.sim.world import World, WorldConfig
@@ -78,6 +79,7 @@ def make_env(name: str, seed: int = 0, world_config: WorldConfig | None = None, 
         for _ in range(SETTLE_STEPS):
             pb.stepSimulation(physicsClientId=world.client)
         world.tick_hooks.append(task.on_tick)
+        world.tick_hooks.append(PlacementWatch(task))
         policy: Any = ScriptedPolicy(world, task)
         if disturbed:
             policy = apply_disturbances(world, policy, task.disturbances(seed))

@@ -16,6 +16,9 @@ Kinds written by the simulator:
   ``screw_short``, ``turn_short``, ``cube_off_target``, ``dirt_left``; ``skill``), the episode's first failed skill;
   ``over_swept`` (sweep-half: the zone first holds more blocks than the success band accepts; ``count``,
   ``band`` = [min, max], ``objects`` = the zone and the blocks inside), once per episode.
+- placing: ``released`` (a placing skill let ``obj`` go into ``target``), judged once it rests
+  (:mod:`code_as_monitor.sim.placement`) as ``placed`` or ``misplaced`` (at the release's time; ``reason``,
+  ``judged_at``, ``at_rest``, and for a misplacement ``after``: the disturbance during that action, if any).
 - robot: ``suction_on`` / ``suction_off`` (``obj`` = the attached/released object, ``""`` if none),
   ``action_start`` / ``action_done`` / ``action_halted`` (``skill``, ``args``).
 """

@@ -15,7 +15,7 @@ Skills (``Action.skill``, ``Action.args``):
   (its ``tip`` end first).
 - ``insert {"obj": name, "target": name}``: carry the held object's lowest end above the target's
   opening (``rim`` part), descend until that end is ``INSERT_DEPTH`` above the target's floor,
-  open, retreat and park.
+  open (a ``released`` event, judged at rest by :mod:`code_as_monitor.sim.placement`), retreat and park.
 - ``stow {"obj": name, "target": name}``: the same motion into the target's ``slot`` part (a book held
   upright, lowered into a bookshelf slot until its lower end is ``INSERT_DEPTH`` above the slot floor).
 """
@@ -73,9 +73,12 @@ class GripperSkills:
         """(3,) world direction of object ``name``'s long (local x) axis."""
         return self.world.pose(name)[:3, 0].copy()
 
-    def _grip_open(self) -> None:
+    def _grip_open(self) -> str:
+        """Open the fingers; the name of what they let go (``""`` if nothing)."""
         held = self.world.robot.ee.open()
-        self.world.events.log(self.world.t, "gripper_open", self.world.name_of(held))
+        name = self.world.name_of(held)
+        self.world.events.log(self.world.t, "gripper_open", name)
+        return name
 
     def _grip_close(self) -> None:
         got = self.world.robot.ee.close(self.world.graspable)
@@ -163,7 +166,9 @@ class GripperSkills:
         yield from self.mover.move([*xy, above], speed=SLOW_SPEED * 2)
         yield from self.mover.move([*xy, floor + INSERT_DEPTH - d[2]], speed=SLOW_SPEED)
         yield from self.mover.wait(0.1)
-        self._grip_open()
+        let_go = self._grip_open()
+        if let_go:  # judged once it rests (sim.placement): ``placed`` or ``misplaced``
+            self.world.events.log(self.world.t, "released", let_go, target=target, skill=skill)
         yield from self.mover.wait(0.2)
         yield from self.mover.move([*xy, max(GRIP_CARRY_Z, above) + 0.05], speed=SLOW_SPEED * 2)
         yield from self.mover.move(GRIP_PARK, pitch=0.0)

@@ -102,6 +102,11 @@ class Task:
     def evaluate(self, world: Any) -> TaskResult:
         raise NotImplementedError
 
+    def placed(self, world: Any, obj: str, target: str) -> tuple[bool, str] | None:
+        """Does ``obj``, let go by a placing skill into ``target`` and now at rest, lie where the task needs it?
+        ``(ok, reason)``; None: the task has no such test (:mod:`code_as_monitor.sim.placement` logs nothing)."""
+        return None
+
     def default_plan(self) -> list[Action]:
         raise NotImplementedError
 

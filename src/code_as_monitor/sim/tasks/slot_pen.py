@@ -125,6 +125,12 @@ class SlotPen(Task):
             ok, reason = False, f"inserted after the time limit ({world.t:.1f} s)"
         return TaskResult(ok, reason, info)
 
+    def placed(self, world: Any, obj: str, target: str) -> tuple[bool, str] | None:
+        """The pen let go into the holder is in it (the success test, nothing held)."""
+        if obj != "pen" or target != "pen_holder":
+            return None
+        return pen_in_holder(world.position("pen/tip"), world.pose("pen_holder"), held=False)
+
     def default_plan(self) -> list[Action]:
         return [
             Action("grasp", {"obj": "pen", "part": "body"}),

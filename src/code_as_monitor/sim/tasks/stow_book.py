@@ -134,6 +134,12 @@ class StowBook(Task):
             ok, reason = False, f"stowed after the time limit ({world.t:.1f} s)"
         return TaskResult(ok, reason, info)
 
+    def placed(self, world: Any, obj: str, target: str) -> tuple[bool, str] | None:
+        """The book let go into the shelf stands in it (the success test, nothing held)."""
+        if obj != "book" or target != "bookshelf":
+            return None
+        return book_in_shelf(world.pose("book"), world.pose("bookshelf"), held=False)
+
     def default_plan(self) -> list[Action]:
         return [
             Action("grasp", {"obj": "book", "part": "cover"}),
