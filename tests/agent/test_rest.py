@@ -158,6 +158,28 @@ def test_frames_while_waiting_are_due_once_per_period() -> None:
     assert waiting and all(d.kind is DecisionKind.CONTINUE for d in waiting)
 
 
+def test_an_episode_stopped_while_waiting_for_rest_starts_the_next_one_planning() -> None:
+    """Stopped from outside in the middle of a wait, then started again: the new episode's first frame is due
+    at once and plans (the old wait's schedule does not carry over)."""
+    w = FallingWorld(t_drop=0.3, t_rest=None)
+    checker = CodeChecker(Coder(), Painter(), Tracker(w), Runtime(RULES), History, AgentConfig())
+    m = Monitor(Planner([_subgoal("move block"), _subgoal("again")]), checker, rest=RestWait(max_s=3.0))
+    m.start("move the block")
+    policy = MovePolicy(w)
+    while True:
+        d = m.step(w.observe(), policy_done=policy.done)
+        if d.halt:
+            break
+        if d.action is not None:
+            policy.start(d.action)
+        policy.step()
+    assert not m.frame_due(w.t + 0.01)  # waiting: the next compared frame is a period away
+    m.stop("operator stop", w.t)
+    m.start("move the block")
+    assert m.frame_due(w.t + 0.01)
+    assert m.step(w.observe()).kind is DecisionKind.START
+
+
 @pytest.mark.parametrize(("field", "value", "match"), [
     ("rest_max_s", -1.0, "rest_max_s"), ("rest_still_frames", 0, "rest_still_frames"),
     ("rest_depth_tol", 0.0, "rest_depth_tol"), ("rest_max_s", float("nan"), "rest_max_s"),

@@ -44,8 +44,6 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from code_as_monitor.agent.decision import Decision, DecisionKind
 from code_as_monitor.agent.records import (
     DEFAULT_MAX_REPLANS,
@@ -56,7 +54,7 @@ from code_as_monitor.agent.records import (
     EpisodeLog,
     SubgoalRecord,
 )
-from code_as_monitor.agent.rest import NO_WAIT, RestWait
+from code_as_monitor.agent.rest import NO_WAIT, RestWait, RestWatch
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalChecker, SubgoalEnd
 from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.errors import ConfigError, ObservationError, VLMError
@@ -119,10 +117,7 @@ class Monitor:
         self._ctx = MonitorContext(self)
         self.episode = EpisodeLog("")
         self._state = "idle"  # idle -> plan -> run -> (rest ->) plan -> ... -> (done-rest ->) over
-        self._rest_t0 = self._rest_next = 0.0
-        # view -> depth at the start of the current still streak: a slow slide adds up against it
-        self._rest_ref: dict[str, np.ndarray] | None = None
-        self._rest_still, self._rest_moved = 0, False  # still frames in a row; moved since the wait began
+        self._waiting: RestWatch | None = None  # the wait for rest under way (states rest and done-rest)
         self._frame_alarms: list[Alarm] = []
         self._subgoal: Subgoal | None = None
         self._previous: Subgoal | None = None
@@ -163,6 +158,7 @@ class Monitor:
         self.episode = EpisodeLog(instruction)
         self._state = "plan"
         self._subgoal = self._previous = None
+        self._waiting = None
         self._feedback = None
         self._index = 0
         self._last_t = None
@@ -174,8 +170,8 @@ class Monitor:
             raise ObservationError(f"Monitor.frame_due: t must be a finite number of seconds, got {t!r}")
         if self._state == "run":
             return self.checker.frame_due(t, policy_done)
-        if self._state in ("rest", "done-rest"):
-            return t + 1e-9 >= self._rest_next
+        if self._state in ("rest", "done-rest") and self._waiting is not None:
+            return self._waiting.due(t)
         return self._state == "plan"
 
     def step(self, obs: Observation, policy_done: bool = False) -> Decision:
@@ -248,8 +244,7 @@ class Monitor:
     # ------------------------------------------------------------------------------------------------
     def _wait_for_rest(self, obs: Observation, state: str) -> None:
         self._state, self._subgoal = state, None
-        self._rest_t0, self._rest_ref, self._rest_still, self._rest_moved = obs.t, self.rest.depths(obs), 0, False
-        self._rest_next = obs.t + self.rest.period_s
+        self._waiting = RestWatch(self.rest, obs)
 
     def _select_views(self, obs: Observation) -> Observation:
         if self.cameras is None:
@@ -267,28 +262,22 @@ class Monitor:
 
     def _rest_step(self, obs: Observation) -> Decision:
         """A frame while waiting for the scene to come to rest: re-plan on it once it is (or at ``max_s``)."""
-        if obs.t + 1e-9 < self._rest_next:
+        w = self._waiting
+        assert w is not None
+        if not w.due(obs.t):
             return Decision(DecisionKind.CONTINUE, obs.t)
-        self._rest_next = obs.t + self.rest.period_s
         done = self._state == "done-rest"
-        now = self.rest.depths(obs)
-        if self._rest_ref is not None and self.rest.still(self._rest_ref, now):
-            self._rest_still += 1
-        else:
-            self._rest_ref, self._rest_still, self._rest_moved = now, 0, True
-        waited = obs.t - self._rest_t0
-        at_rest = self._rest_still >= self.rest.still_frames
-        if not at_rest and waited + 1e-9 < self.rest.max_s:
+        if not w.observe(obs):
             if done:
                 self.checker.follow(obs)  # type: ignore[attr-defined]
             return Decision(DecisionKind.CONTINUE, obs.t)
-        self.emit("done_rest" if done else "rest", t=obs.t, waited_s=round(waited, 4), at_rest=at_rest)
-        self._rest_ref = None
+        self.emit("done_rest" if done else "rest", t=obs.t, waited_s=round(w.waited, 4), at_rest=w.at_rest)
+        self._waiting = None
         self._state = "plan"
         if not done:
             return self._plan(obs, DecisionKind.START, halt=False, ended=None)
         # unmoved since the claim, it is the scene the completion was judged on: again would re-sample the noise
-        end = self.checker.at_rest(obs, self._ctx) if self._rest_moved else None  # type: ignore[attr-defined]
+        end = self.checker.at_rest(obs, self._ctx) if w.moved else None  # type: ignore[attr-defined]
         if end is None:
             return self._complete(obs.t, halt=False, ended=None)
         self._subgoal = self._previous

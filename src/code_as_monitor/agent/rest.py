@@ -108,6 +108,45 @@ class RestWait:
         return True
 
 
+class RestWatch:
+    """One wait for rest under ``rule`` (a :class:`RestWait`), begun on ``obs``: feed it the frames that are
+    :meth:`due`; :meth:`observe` says when the wait is over (at rest, or ``max_s`` waited).
+
+    Attributes:
+        t0: observation seconds the wait began.
+        next_t: the earliest time of the next frame compared (one monitoring period after the last).
+        still: still comparisons in a row; ``at_rest`` once they reach ``rule.still_frames``.
+        moved: whether any compared frame differed from its streak's first (the scene moved during the wait).
+        waited: seconds from ``t0`` to the last frame compared.
+    """
+
+    def __init__(self, rule: RestWait, obs: Observation) -> None:
+        self.rule = rule
+        self.t0 = obs.t
+        self.next_t = obs.t + rule.period_s
+        self._ref: dict[str, np.ndarray] | None = rule.depths(obs)  # the depths that began the still streak
+        self.still, self.moved, self.waited = 0, False, 0.0
+
+    @property
+    def at_rest(self) -> bool:
+        return self.still >= self.rule.still_frames
+
+    def due(self, t: float) -> bool:
+        """Whether a frame at ``t`` seconds is compared (frames between monitoring periods are not)."""
+        return t + 1e-9 >= self.next_t
+
+    def observe(self, obs: Observation) -> bool:
+        """Compare a due frame with the streak's first (a slow slide adds up against it); True when the wait is over."""
+        self.next_t = obs.t + self.rule.period_s
+        now = self.rule.depths(obs)
+        if self._ref is not None and self.rule.still(self._ref, now):
+            self.still += 1
+        else:
+            self._ref, self.still, self.moved = now, 0, True
+        self.waited = obs.t - self.t0
+        return self.at_rest or self.waited + 1e-9 >= self.rule.max_s
+
+
 NOISE_BANDS = 8
 """Depth bands (equal pixel counts) in which :meth:`RestWait.tolerance` estimates the depth noise separately."""
 
@@ -161,4 +200,4 @@ def in_hand(robot: RobotState | None, positions: dict[int, np.ndarray], owners: 
     return False
 
 
-__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NOISE_BANDS", "NO_WAIT", "RestWait", "in_hand"]
+__all__ = ["HOLD_DIST", "HOLD_WINDOW_S", "MIN_TRAVEL", "NOISE_BANDS", "NO_WAIT", "RestWait", "RestWatch", "in_hand"]
