@@ -23,19 +23,22 @@ CAM = CameraModel.look_at("front", np.array([1.0, 0, 1]), np.zeros(3), W, H, 60.
 
 class SlidingWorld(World):
     """The fake world with one depth view (the block a 6x6 px patch at a column that follows x). From ``t_slip`` the
-    block, wherever the policy left it, slides back at 0.4 m/s to x = 0.1 (once; ``None``: never)."""
+    block, wherever the policy left it, slides back at 0.4 m/s to x = 0.1, or by ``dist`` metres (once; ``None``:
+    never)."""
 
-    def __init__(self, t_slip: float | None) -> None:
+    def __init__(self, t_slip: float | None, dist: float | None = None) -> None:
         super().__init__()
         self.t_slip = t_slip
         self.x_slip: float | None = None
+        self.dist = dist
 
     def observe(self) -> Observation:
         if self.t_slip is not None and self.t >= self.t_slip:
             if self.x_slip is None:
                 self.x_slip = self.x
-            self.x = max(0.1, self.x_slip - 0.4 * (self.t - self.t_slip))
-            if self.x <= 0.1:
+            end = 0.1 if self.dist is None else self.x_slip - self.dist
+            self.x = max(end, self.x_slip - 0.4 * (self.t - self.t_slip))
+            if self.x <= end:
                 self.t_slip = None  # slid once; moved again by the policy from here
         d = np.full((H, W), 1.0, np.float32)
         col = 5 + round(100 * self.x)
@@ -93,6 +96,25 @@ def test_a_scene_that_stays_put_is_complete_after_the_wait() -> None:
     assert [k for k, _ in events].index("task_complete_claimed") < [k for k, _ in events].index("task_complete")
 
 
+def test_a_settling_smaller_than_the_trackers_motion_threshold_is_not_judged_again() -> None:
+    """The block settles back 2.5 cm after the halt, below ``refresh_motion`` (3 cm): the completion stands though
+    the borderline check (x >= 0.2) would now read False; 6 cm is judged again and re-planned on."""
+    w = SlidingWorld(t_slip=1.15, dist=0.025)
+    decisions, events, planner = _run(w)
+    success = next(d for d in decisions if d.ended is not None and d.ended.outcome == "success")
+    assert w.x < 0.2, "the slide would flip the check"
+    assert decisions[-1].kind is DecisionKind.TASK_DONE and len(planner.calls) == 2
+    assert not [k for k, _ in events if k == "alarm"]
+    (check,) = [f for k, f in events if k == "rest_check"]
+    assert check["ok"] and not check["judged"] and check["moved"] == pytest.approx(0.025, abs=0.003)
+    assert decisions[-1].t > success.t
+    w = SlidingWorld(t_slip=1.15, dist=0.06)
+    decisions, events, _ = _run(w)
+    checks = [f for k, f in events if k == "rest_check"]
+    assert checks[0]["judged"] and not checks[0]["ok"] and checks[0]["moved"] == pytest.approx(0.06, abs=0.003)
+    assert any(d.kind is DecisionKind.SUBGOAL_FAILED for d in decisions)
+
+
 def test_without_the_check_the_task_is_complete_on_the_planners_word() -> None:
     w = SlidingWorld(t_slip=1.15)
     decisions, events, _ = _run(w, check_done_at_rest=False)
@@ -130,3 +152,30 @@ def test_a_checker_that_cannot_judge_at_rest_is_not_asked() -> None:
     decisions = user_loop(m, w, MovePolicy(w))
     success = next(d for d in decisions if d.ended is not None and d.ended.outcome == "success")
     assert decisions[-1] is success and success.kind is DecisionKind.TASK_DONE
+
+
+def test_the_motion_gate_reads_measured_elements_order_free() -> None:
+    """What counts as moved since the completion: not the robot's elements, not a part no view saw when painted (its
+    whole object stood in), and not a line whose re-measured ends swapped."""
+    from code_as_monitor.core import Element, ElementSupport
+    from code_as_monitor.core.constraints import Constraint, Phase
+
+    checker = CodeChecker(Coder(), Painter(), Tracker(World()), Runtime(RULES), History, AgentConfig())
+    seen = ElementSupport(30, 2, 0.001, 0.01, (0.02, 0.02, 0.02))
+    unseen = ElementSupport(300, 2, 0.003, 0.1, (0.2, 0.08, 0.01), part_seen=False)
+    checker._elements = [
+        Element.point(0, "gripper tip", np.zeros(3), ("robot", "tip")),
+        Element.point(1, "rope bead_00", np.zeros(3), ("rope", "bead_00"), support=seen),
+        Element.point(2, "rope bead_02", np.zeros(3), ("rope", "bead_02"), support=unseen),
+        Element.line(3, "book spine", np.zeros(3), np.array([0, 0, 0.2]), ("book", "spine"), support=seen),
+    ]
+    checker._upon = [Constraint("c", "covered", Phase.UPON, [])]
+    checker._uses = {"c": {0, 1, 2, 3}}
+    judged = {0: np.zeros((1, 3)), 1: np.zeros((1, 3)), 2: np.zeros((1, 3)), 3: np.array([[0, 0, 0], [0, 0, 0.2]])}
+    now = {0: np.array([[0.0, 0.0, 0.1]]), 1: np.array([[0.008, 0.0, 0.0]]), 2: np.array([[0.0, 0.06, 0.0]]),
+           3: np.array([[0, 0, 0.2], [0, 0, 0.0]])}
+    assert checker._moved_since(judged, now, set()) == pytest.approx(0.008)
+    now[3] = np.array([[0, 0, 0], [0.0, 0.05, 0.19]])  # the spine tipped: its top end moved 5 cm
+    assert checker._moved_since(judged, now, set()) == pytest.approx(np.hypot(0.05, 0.01))
+    assert checker._moved_since(judged, now, {3}) == pytest.approx(0.008)
+    assert checker._moved_since(None, now, set()) is None

@@ -215,19 +215,55 @@ class SubgoalCompletion:
     def at_rest(self, obs: Observation, ctx: MonitorContext) -> SubgoalEnd | None:
         """The last subgoal's upon checks on the scene at rest (re-measured as :meth:`_confirm` does); None when they
         hold or have no verdict (an element unseen now does not undo a completion judged before), else a reactive
-        failure whose first violated check is raised as an alarm (the planner re-plans on it)."""
+        failure whose first violated check is raised as an alarm (the planner re-plans on it).
+
+        Judged only if an element the checks read (not the robot's) moved more than ``refresh_motion`` since the
+        frame the completion was judged on: what moved less is the motion the tracker does not count as moving (a
+        released rope settling by millimetres), and judging it again would only re-sample a borderline reading (a
+        rope read 91 % covered within 1.9 cm at the halt, 82 % at rest, with the task's own 2.5 cm still met); a
+        book tipping over after the release moves its spine by centimetres."""
         if self._unwatched or not self._upon:
             return None
+        judged = self._last[1] if self._last is not None else None
         tr, _ = self._track(obs)
         points, stale, _, measured = self._refreshed(obs, tr, ctx, confirming=True)
         self._history.push(obs.t, points)
-        verdicts = self._upon_verdicts(points, {i for i, st in stale.items() if np.any(st)}, obs.t)
+        stale_ids = {i for i, st in stale.items() if np.any(st)}
+        moved = self._moved_since(judged, points, stale_ids)
+        if moved is not None and moved <= self.cfg.refresh_motion:
+            ctx.emit("rest_check", t=obs.t, ok=True, judged=False, moved=round(moved, 4))
+            return None
+        verdicts = self._upon_verdicts(points, stale_ids, obs.t)
         bad = [v for v in verdicts if not v.ok]
-        ctx.emit("rest_check", t=obs.t, ok=not bad, remeasured=sorted(measured),
-                 verdicts=[v.to_dict() for v in verdicts])
+        ctx.emit("rest_check", t=obs.t, ok=not bad, judged=True, moved=None if moved is None else round(moved, 4),
+                 remeasured=sorted(measured), verdicts=[v.to_dict() for v in verdicts])
         if not bad:
             return None
         v = bad[0]
         ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, obs.t)
         return self._end_of("reactive_failure", f"{v.constraint_id}: {v.reason} (once the scene came to rest after "
                                                 "the subgoal ended)")
+
+    def _moved_since(self, judged: dict[int, np.ndarray] | None, points: dict[int, np.ndarray],
+                     stale_ids: set[int]) -> float | None:
+        """Metres: the largest move of an element the upon checks read between ``judged`` and ``points`` (element id
+        -> (k, 3) world metres), as the symmetric Hausdorff distance of its two point sets; None when no such element
+        is in both. Not the robot's (it moves away after a release), not one stale now, and not a part that no view saw
+        when it was painted (its whole object stood in, ``ElementSupport.part_seen``: its points are not the part's,
+        and carried with the part's turns they sweep centimetres while the part settles by millimetres: a rope bead
+        painted 8 cm off at the rope's centre)."""
+        if judged is None:
+            return None
+        skip = {e.id for e in self._elements
+                if e.owner[0] == "robot" or (e.support is not None and not e.support.part_seen)}
+        ids = set().union(*(self._uses[c.id] for c in self._upon)) - skip - stale_ids
+        moves = []
+        for i in ids:
+            a, b = judged.get(i), points.get(i)
+            if a is None or b is None:
+                continue
+            a, b = np.asarray(a, dtype=float).reshape(-1, 3), np.asarray(b, dtype=float).reshape(-1, 3)
+            d = np.linalg.norm(a[:, None] - b[None], axis=2)  # (ka, kb)
+            if np.all(np.isfinite(d)):  # order-free (a re-measured line's ends or surface's corners may swap)
+                moves.append(float(max(d.min(axis=1).max(), d.min(axis=0).max())))
+        return max(moves) if moves else None

@@ -51,7 +51,11 @@ class LiveLog:
         elif k == "task_complete_claimed":
             c.print(f"{ts}[dim]the planner calls the task complete: judging the last subgoal again at rest[/]")
         elif k == "rest_check":
-            word = "[green]still holds at rest[/]" if ev["ok"] else "[red]no longer holds at rest[/]"
+            if ev.get("judged") is False:
+                mm = 1000 * ev["moved"]
+                word = f"[green]at rest, moved {mm:.0f} mm since it was judged: the completion stands[/]"
+            else:
+                word = "[green]still holds at rest[/]" if ev["ok"] else "[red]no longer holds at rest[/]"
             c.print(f"{ts}{word}")
         elif k == "program_fault" and self.verbose:
             c.print(f"{ts}[yellow]program fault[/] {ev['constraint_id']}: {ev['reason']}")
