@@ -43,7 +43,8 @@ class AgentConfig:
             painted mostly through the robot's arm) and one from the static frame is not. Robot elements
             follow forward kinematics either way.
         refresh_motion: metres of tracked centroid motion over the subgoal above which an element counts
-            as moved.
+            as moved; also how far an element the last subgoal's checks read must have moved since the completion
+            for the done check at rest to judge them again (``check_done_at_rest``).
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
         rest_max_s: after a halt or a failed subgoal, re-plan once the scene has come to rest (the depth images
