@@ -224,12 +224,12 @@ class SubgoalCompletion:
         book tipping over after the release moves its spine by centimetres."""
         if self._unwatched or not self._upon:
             return None
-        judged = self._last[1] if self._last is not None else None
+        judged, unseen = (self._last[1], set(self._last[2])) if self._last is not None else (None, set())
         tr, _ = self._track(obs)
         points, stale, _, measured = self._refreshed(obs, tr, ctx, confirming=True)
         self._history.push(obs.t, points)
         stale_ids = {i for i, st in stale.items() if np.any(st)}
-        moved = self._moved_since(judged, points, stale_ids)
+        moved = self._moved_since(judged, points, stale_ids | unseen)
         if moved is not None and moved <= self.cfg.refresh_motion:
             ctx.emit("rest_check", t=obs.t, ok=True, judged=False, moved=round(moved, 4))
             return None
@@ -248,10 +248,11 @@ class SubgoalCompletion:
                      stale_ids: set[int]) -> float | None:
         """Metres: the largest move of an element the upon checks read between ``judged`` and ``points`` (element id
         -> (k, 3) world metres), as the symmetric Hausdorff distance of its two point sets; None when no such element
-        is in both. Not the robot's (it moves away after a release), not one stale now, and not a part that no view saw
-        when it was painted (its whole object stood in, ``ElementSupport.part_seen``: its points are not the part's,
-        and carried with the part's turns they sweep centimetres while the part settles by millimetres: a rope bead
-        painted 8 cm off at the rope's centre)."""
+        is in both. Not the robot's (it moves away after a release), not one stale now or at the completion's frame (its
+        point there is where it was last seen, not a measurement: a rope bead unseen at the halt and seen again at rest
+        "moved" 20 cm; ``stale_ids``), and not a part that no view saw when it was painted (its whole object stood in,
+        ``ElementSupport.part_seen``: its points are not the part's, and carried with the part's turns they sweep
+        centimetres while the part settles by millimetres: a rope bead painted 8 cm off at the rope's centre)."""
         if judged is None:
             return None
         skip = {e.id for e in self._elements
