@@ -46,6 +46,8 @@ class PlacementWatch:
         self.task = task
         self._still: dict[tuple[str, float], int] = {}  # (obj, release t) -> consecutive still ticks
         self._seen = 0  # event count at the last tick (a smaller one: the world was restored)
+        self._key: tuple[int, int] | None = None  # (count, id of the last event) the open releases were found for
+        self._open: list[int] = []
         self._untested: set[tuple[str, float]] = set()  # releases the task has no test for
 
     def __call__(self, world: Any) -> None:
@@ -53,7 +55,10 @@ class PlacementWatch:
         if len(events) < self._seen:
             self._still.clear()
         self._seen = len(events)
-        for i in _open_releases(events):
+        key = (len(events), id(events[-1]) if events else 0)
+        if key != self._key:  # the log changed: look for unjudged releases again (not every tick of every task)
+            self._key, self._open = key, _open_releases(events)
+        for i in self._open:
             if (events[i]["obj"], events[i]["t"]) not in self._untested:
                 self._watch(world, events, i)
 
