@@ -31,7 +31,7 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    re-segments its elements (the agent re-runs the painter); their clouds become the body's new model (a part
    re-painted from its whole object's masks where its earlier paint had seen it is refused: stale), except
    that a lost whole object whose known model registers to its new segmentation keeps that model
-   (:func:`.depth_search.relocate`), and its parts their place on it. A part
+   (:func:`.depth_relocate.relocate`), and its parts their place on it. A part
    too small to register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part
    moving it, is not searched for (its few points fit nearby surfaces): stale rather than wrong;
 5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted
@@ -80,7 +80,8 @@ from code_as_monitor.perception.trackers.depth_detect import (
     track_small,
 )
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
-from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, relocate, track_body
+from code_as_monitor.perception.trackers.depth_relocate import relocate
+from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, fit_support_plane
 
 log = logging.getLogger(__name__)

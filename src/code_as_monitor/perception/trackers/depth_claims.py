@@ -81,18 +81,25 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
     stick's end seen moving along the stick while the uniform stick registers unmoved is denied there); its evidence
     is then the object's registration (``on_parent``) and it has none of its own (``last`` is None: with its object
     lost the next frame it is not kept where it was on its few points but searched like a lost body). Denied, the
-    part's own result stands (its registration, or lost: stale)."""
+    part's own result stands (its registration, or lost: stale). The frame also denies the carry when it contradicts
+    at least ``min_seen`` more of the part's points there than at the part's own passing pose: a cabinet's frame,
+    registered unmoved, is not dragged by its whole body, which the end-effector pulls by the handle (the part is
+    then ``apart``: next frame it is first tried where it was, not where its object took it)."""
+    part.apart = False
     if part.model is None or parent.model is None or parent.lost or part.rel is None:
         return
     T_rigid = parent.T @ part.rel
     if not part.lost and centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
         return
     sup = support(apply(T_rigid, part.model.points), views, c.depth_tol, c.max_depth)
-    denied = sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1)
+    own = None if part.lost or part.on_parent else part.last
+    denied = (sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1)
+              or (own is not None and sup.contradicted >= own.contradicted + c.min_seen))
     if not part.lost and (part.held or denied) and own_evidence(c, part, parent, views) >= c.min_seen:
         part.rel = invert(parent.T) @ part.T  # it moved on its own
         return
     if denied:
+        part.apart = not part.lost
         return  # the frame denies it where the object carries it: the part's own result stands
     if not part.lost:
         part.T = part.T_prev  # the slid registration is not a pose the part had
