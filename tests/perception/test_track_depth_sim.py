@@ -149,6 +149,26 @@ def test_block_hidden_by_the_arm_is_stale_then_reacquired():
         assert np.linalg.norm(end["est"] - q) < 0.03  # where the block now is, not where it was
 
 
+def test_block_painted_in_the_jaws_is_carried_from_the_first_frame():
+    """The agent re-paints its elements at every subgoal's start, often with the object already held. The new body
+    must count as held at once: the first frame after the paint is tried where the end-effector carried it (seen
+    with slot-pen 191355131: the pen re-painted as a re-plan began swung 3.4 cm in one frame, was lost, and was
+    re-found 11.6 cm off: a false "pen dropped")."""
+    with make_env("stack-in-order", seed=0, disturbed=False, world_config=WorldConfig(width=320, height=240)) as env:
+        world = env.world
+        for _ in _policy(env, Action("pick", {"obj": "red_block"})):
+            pass
+        start = world.robot.tip()
+        swing = _move(env, Mover(world).move(start + np.array([0.0, 0.25, 0.0]), speed=0.4))
+        while not world.frame_due() or float(np.linalg.norm(world.robot.tip() - start)) < 0.04:
+            next(swing)  # under way at speed: the next camera frame is centimetres on
+        sc = Scored(env, "red_block")  # painted now, in the jaws
+        fast = sc.run(swing, "swing")
+        assert len(fast) >= 3 and float(np.linalg.norm(fast[1]["truth"] - fast[0]["truth"])) > 0.02  # fast moves
+        assert all(not f["stale"] and f["err"] < 0.005 for f in fast), [
+            (round(f["t"], 2), f["stale"], round(1e3 * f["err"], 1)) for f in fast]
+
+
 def test_lower_block_stays_put_while_the_next_is_set_on_it():
     """The scripted stack (undisturbed): the tracked lower block must stay where it rests while the arm sets
     the next block on it and hides its top (seen with this episode seed: the estimate slid 22 mm up along
