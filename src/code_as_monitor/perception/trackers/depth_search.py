@@ -212,23 +212,11 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
             if _as_good_as_last(c, body, sup):
                 return best
     if climb and (best is None or not _rank(body, best[1])[0]):
-        starts = [T for T, g in zip(guesses[:start[1]], at_guess) if g is not None] + _lowered(c, body)
+        starts = [T for T, g in zip(guesses[:start[1]], at_guess) if g is not None]
         climbed = _climb_from(c, body, views, starts if best is None else [best[0], *starts], need, plane)
         if climbed is not None and (best is None or _rank(body, climbed[1]) > _rank(body, best[1])):
             best = climbed
     return best
-
-
-def _lowered(c: DepthTrackerConfig, body: BodyState) -> list[np.ndarray]:
-    """The last pose lowered by one to ``max_correspondence[0] / voxel`` voxels: a body just let go mostly drops (a
-    pen released in its holder fell 1.3 cm; ICP slid it along its axis, and the climb from where it was found a
-    local best some runs and not others)."""
-    out = []
-    for k in range(1, int(c.max_correspondence[0] / c.voxel) + 1):
-        T = body.T.copy()
-        T[2, 3] -= k * c.voxel
-        out.append(T)
-    return out
 
 
 CLIMB_STEPS = 40
