@@ -234,8 +234,8 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     correspondence distance of its start (a correction, not a search of the scene); accepted under the search's
     checks (``need`` seen points, at most ``max_contradiction``, not sunk into ``plane``). The projection can tell
     where registration cannot: a thin pen let go into its holder, its model one side of it and three-quarters of
-    its crop the holder, was turned 9-26 degrees by ICP from every guess while its true pose explained the frame with 87 points seen and 8
-    contradicted."""
+    its crop the holder, was turned 9-26 degrees by ICP from every guess while its true pose explained the frame
+    with 87 points seen and 8 contradicted."""
     model = body.model
     assert model is not None
 
