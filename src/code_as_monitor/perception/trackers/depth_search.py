@@ -231,11 +231,12 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     """The pose that the views explain best (:func:`_rank`) near the two best of ``starts`` (4, 4), by coordinate
     ascent: shifts of :data:`CLIMB_FIRST_STEP` voxels along the world axes and turns of 2 degrees about them through
     the model's centre, halved when none improves, down to a quarter of a voxel, the centre kept within the coarsest
-    correspondence distance of its start (a correction, not a search of the scene); accepted under the search's
-    checks (``need`` seen points, at most ``max_contradiction``, not sunk into ``plane``). The projection can tell
-    where registration cannot: a thin pen let go into its holder, its model one side of it and three-quarters of
-    its crop the holder, was turned 9-26 degrees by ICP from every guess while its true pose explained the frame
-    with 87 points seen and 8 contradicted."""
+    correspondence distance of its start (a correction, not a search of the scene) and off poses that sink into
+    ``plane`` (the coarse steps took a pen in its holder 1.5 cm too deep, where the holder hides it: refused, the
+    pen was lost); accepted under the search's checks (``need`` seen points, at most ``max_contradiction``). The
+    projection can tell where registration cannot: a thin pen let go into its holder, its model one side of it and
+    three-quarters of its crop the holder, was turned 9-26 degrees by ICP from every guess while its true pose
+    explained the frame with 87 points seen and 8 contradicted."""
     model = body.model
     assert model is not None
 
@@ -258,7 +259,8 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
                     M = np.eye(4)
                     M[:3, :3], M[:3, 3] = R, ctr - R @ ctr
                     moves.append(M)
-            near = [M @ T for M in moves if centre_shift(model, T_start, M @ T) <= c.max_correspondence[0]]
+            near = [M @ T for M in moves if centre_shift(model, T_start, M @ T) <= c.max_correspondence[0]
+                    and not _sinks(c, model, M @ T, plane)]
             cand = max(((S, evidence(S)) for S in near), key=lambda x: _rank(body, x[1])) if near else (T, sup)
             if _rank(body, cand[1]) > _rank(body, sup):
                 T, sup = cand
