@@ -90,3 +90,4 @@ def test_drawer_slip_episode_with_depth_recovers_after_the_regrasp():
     pulls = [s for s in summary["episode"]["subgoals"] if s["skill"] == "pull"]
     assert summary["success"], summary["reason"]
     assert len(pulls) == 2 and pulls[0]["outcome"] == "violated" and pulls[1]["outcome"] == "success", pulls
+
