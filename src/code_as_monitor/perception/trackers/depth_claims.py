@@ -92,7 +92,7 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
     if not part.lost and centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
         return
     sup = support(apply(T_rigid, part.model.points), views, c.depth_tol, c.max_depth)
-    own = None if part.lost or part.on_parent else part.last
+    own = None if part.lost else part.last  # its own result this frame (a part placed on its object has none)
     denied = (sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1)
               or (own is not None and sup.contradicted >= own.contradicted + c.min_seen))
     if not part.lost and (part.held or denied) and own_evidence(c, part, parent, views) >= c.min_seen:

@@ -40,7 +40,7 @@ class BodyState:
     painted: int = 0  # frame counter value when the model was painted (later = more recent evidence)
     rel: np.ndarray | None = None  # a part: its pose relative to its object's model frame (depth_claims)
     on_parent: bool = False  # a part placed where its object carries it this frame (its evidence is the object's)
-    apart: bool = False  # a part whose own pose stood against its object's carry last frame (depth_claims)
+    apart: bool = False  # its own pose stood against its object's carry the last time its object moved (depth_claims)
     small: bool = False  # too small to register on its own (depth_detect.is_small on the model): placed by its object
     free_s: float = math.inf  # seconds since the end-effector last carried it (inf: never)
     elements: list[int] = field(default_factory=list)
@@ -76,7 +76,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
             found = search(c, body, views, scene, guesses, None if body.model.in_plane else plane,
-                            climb=settling and not body.lost, held=dT_ee is not None)
+                           climb=settling and not body.lost, held=dT_ee is not None)
     if found is None:
         body.lost = True
         body.lost_frames += 1
@@ -143,8 +143,8 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
     return None
 
 def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
-            tiers: list[list[np.ndarray]], plane: Plane | None = None, climb: bool = False,
-            held: bool = False) -> tuple[np.ndarray, Support] | None:
+           tiers: list[list[np.ndarray]], plane: Plane | None = None, climb: bool = False,
+           held: bool = False) -> tuple[np.ndarray, Support] | None:
     """Register from each guess of a tier in order (most likely first), first with the finest
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
     surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
@@ -155,7 +155,7 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
     explains its points). The search stops at a passing result with as much evidence as the last frame had;
     otherwise the passing result that ranks first (:func:`_rank`: not more contradicted than the last pose, then
     the most evidence) wins (a static cabinet frame does not follow its drawer: the drawer's motion passes for it
-    but fits worse than staying put) A ``held`` body (carried by the end-effector: its guesses are where the grip
+    but fits worse than staying put). A ``held`` body (carried by the end-effector: its guesses are where the grip
     took it and where it would have slipped) is not taken further from a guess than the coarsest correspondence
     distance, once, rather than twice: a handle in closed jaws, registered from where it was before the pull's step,
     slid 3.3 cm along the drawer's front, where its model saw 144 points against the carry's 95.
