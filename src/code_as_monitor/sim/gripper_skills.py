@@ -105,13 +105,15 @@ class GripperSkills:
         grasp_axis = getattr(self.task, "grasp_axis", None)
         u = self._axis(obj) if grasp_axis is None else np.asarray(grasp_axis(self.world, obj, part), float)
         # the tool's y axis along the object's long axis; the jaw is symmetric, so either way round
-        # (the one nearest the current yaw: the last wrist joint has limits)
+        # (the one nearest the current yaw, unless the last wrist joint would end near a limit there)
         yaw = float(np.arctan2(u[0], -u[1]))
         yaw = self.mover.yaw + wrap_angle(2 * (yaw - self.mover.yaw)) / 2
         grasp_yaw = getattr(self.task, "grasp_yaw", None)  # a task may need one of the two exactly (a bulb to turn)
         exact = None if grasp_yaw is None else grasp_yaw(self.world, obj, part, self.mover.yaw)
         if exact is not None:
             yaw = float(exact)
+        else:
+            yaw = self.mover.roomy_yaw([*centre[:2], max(GRIP_CARRY_Z, hi[2] + GRIP_APPROACH)], yaw, np.pi)
         centre[:2] += self.noise.offset("grasp_xy")  # a learned policy's imprecision (exact by default)
         centre[2] += self.noise.normal("grasp_z")
         yaw += self.noise.normal("grasp_yaw")

@@ -223,6 +223,7 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills, RLBenchSkills):
         xy = self.world.position(obj)[:2]
         # suction is symmetric: align the tool's yaw with the object's (mod 90 degrees) nearest the current yaw
         yaw = self.mover.yaw + wrap_angle(4 * (self._yaw_of(obj) - self.mover.yaw)) / 4
+        yaw = self.mover.roomy_yaw([*xy, max(lift, hi[2] + APPROACH)], yaw, np.pi / 2)
         yield from self._lift(max(lift, hi[2] + APPROACH))
         yield from self.mover.move([*xy, max(lift, hi[2] + APPROACH)], yaw)
         yield from self.mover.move([*xy, hi[2] + APPROACH * 0.5], speed=SLOW_SPEED * 2)
@@ -258,6 +259,8 @@ class ScriptedPolicy(GripperSkills, PourSkills, DrawerSkills, RLBenchSkills):
         if held is not None and target != "table":
             yaw = self.mover.yaw + wrap_angle(4 * (self._yaw_of(target) - self._yaw_of(self.world.name_of(held)))) / 4
         carry = max(CARRY_Z, top + drop + APPROACH)
+        if held is not None:
+            yaw = self.mover.roomy_yaw([*dest, carry], yaw, np.pi / 2)
         yield from self._lift(carry)
         yield from self.mover.move([*dest, carry], yaw)
         yield from self.mover.move([*dest, top + drop + 0.02], speed=SLOW_SPEED * 2)

@@ -159,6 +159,21 @@ class Panda:
         )
         return list(q[:7])
 
+    def wrist_room(self, tip: np.ndarray, yaw: float, pitch: float = 0.0) -> float:
+        """Radians between the last wrist joint (joint 7) and its nearer limit, negative when past it, in an
+        inverse-kinematics solution for the tool tip at ``tip`` (3,) world metres with ``yaw`` (and ``pitch``),
+        solved from the current joints *without* the limits: how far the wrist would have to turn. With the
+        limits the solver stops the joint at its limit and gives up the tip's position instead (centimetres)."""
+        import pybullet as pb
+
+        orn = down_quat(yaw, pitch)
+        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
+        grasp = np.asarray(tip, float) - R[:, 2] * self.ee.tip_length
+        q = pb.calculateInverseKinematics(self.body, GRASP_LINK, grasp.tolist(), orn, maxNumIterations=60,
+                                          residualThreshold=1e-5, physicsClientId=self.client)
+        q7 = float(q[6])
+        return min(q7 - self._ll[6], self._ul[6] - q7)
+
     # --- control ----------------------------------------------------------------------------------
     def command(self, q: list[float]) -> None:
         """Set the arm's joint position targets (7,) radians; the motors track them while physics steps."""
