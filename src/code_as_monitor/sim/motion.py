@@ -6,7 +6,7 @@ caller ticks the world. Positions are world metres, yaw radians, speeds m/s.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
@@ -62,7 +62,7 @@ class Mover:
             world.robot.move_tip(self.tip, self.yaw, self.pitch)
             yield
 
-    def roomy_yaw(self, tip, yaw: float, period: float) -> float:
+    def roomy_yaw(self, tip: Sequence[float] | np.ndarray, yaw: float, period: float) -> float:
         """The tool yaw to take at ``tip`` (3,) for a symmetric grasp: ``yaw`` itself (the caller's choice,
         nearest the current yaw) while the last wrist joint would keep :data:`WRIST_MARGIN` to its limits
         there, else the one of ``yaw + k * period`` (the equivalent yaws) that leaves it the most room.
