@@ -56,11 +56,8 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # place_on, during (proactive): the block below must not be pushed while we stack on it.
     "still": {"max_disp": 0.02},
     # place_on, upon (proactive): an off-centre block makes the next level topple. 1 cm is CLIPort's
-    # position tolerance for a placed block (the simulator's tower check uses the same figure). `margin`: an offset
-    # counts as centred only within `max_offset - margin`, because the elements are estimates: the offset read on
-    # placed towers was off the true one by p90 1.2 mm, max 1.7 mm (RESULTS, "the reading that decides the stacking
-    # rows", oracle tracker); judged at the limit itself, towers 1.0-1.2 cm off passed and failed the task.
-    "centred": {"max_offset": 0.01, "margin": 0.002},
+    # position tolerance for a placed block (the simulator's tower check uses the same figure).
+    "centred": {"max_offset": 0.01},
     # place_on, upon: the block sits one block size above the target's centre ...
     "resting": {"min_dz": 0.5 * BLOCK_SIZE, "max_dz": 1.5 * BLOCK_SIZE},
     # ... and the cup has let go (the tip is further from the block centre than at contact).
@@ -143,9 +140,8 @@ def place_on(obj: str, target: str, tower_below: list[tuple[str, str]]) -> list[
         ),
         constraint(
             f"centred_{obj}_on_{target}",
-            f"{nice(obj)} is centred on {nice(target)} within {cen['max_offset'] * 100:.1f} cm (judged within "
-            f"{(cen['max_offset'] - cen['margin']) * 100:.1f} cm: the elements are estimates); an offset block makes "
-            f"the tower topple when the next block lands",
+            f"{nice(obj)} is centred on {nice(target)} within {cen['max_offset'] * 100:.1f} cm; an offset block "
+            f"makes the tower topple when the next block lands",
             "upon", True, cen, [whole(obj), whole(target)],
         ),
         constraint(
@@ -196,7 +192,7 @@ def still(c: Spec) -> str:
 def centred(c: Spec) -> str:
     x, tgt = c["element_ids"][:2]
     th, xn, tn = c["thresholds"], obj_name(c, 0), obj_name(c, 1)
-    mo = num(th["max_offset"] - th.get("margin", 0.0))
+    mo = num(th["max_offset"])
     body = f"""
     off = horizontal_distance(E[{x}], E[{tgt}])
     if off <= {mo}:
