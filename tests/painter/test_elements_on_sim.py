@@ -80,7 +80,6 @@ def test_lines_and_surfaces_are_within_2_degrees(views: str, task: str, line: tu
     assert le["axis_offset"] <= POINT_MAX and se["plane_offset"] <= POINT_MAX, (le, se)
 
 
-
 @pytest.mark.parametrize("views", ["default", "shoulders"])
 def test_a_rope_bead_is_painted_at_its_own_centre_or_flagged(views: str) -> None:
     """A rope's bead covers 4-16 pixels a view at 320x240. One that no view sees with ``min_pixels`` is built from its

@@ -50,8 +50,6 @@ def test_put_down_on_the_table_goes_to_free_table():
         assert env.world.robot.ee.holding is None
 
 
-
-
 # the arm and blocks when stack q=3 1709376404 (``depth``, 25748e7) began its first pick that missed (t = 25.1 s):
 # joint 7 at its 170-degree limit; arm joints (7,) radians; block centre (x, y) metres and yaw radians
 WOUND_Q = [1.5953, 0.8848, -1.4791, -2.4055, 1.1227, 2.1129, 2.9671]

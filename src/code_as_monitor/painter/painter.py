@@ -274,8 +274,9 @@ class Painter:
         clouds, carve_views = [], []
         robots = robots if robots is not None else [None] * len(views)
         for (view, lifted, res), (pc, ic), robot in zip(views, counts, robots):
-            mask = res.part_mask if part_seen or pc >= least else res.instance_mask
-            if (pc if mask is res.part_mask else ic) < (least if mask is res.part_mask else self.min_pixels):
+            own = part_seen or pc >= least
+            mask = res.part_mask if own else res.instance_mask
+            if (pc < least) if own else (ic < self.min_pixels):
                 mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
             clouds.append(lifted.points(mask))
             siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None

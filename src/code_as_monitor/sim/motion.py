@@ -73,12 +73,15 @@ class Mover:
         logged as a ``wrist_turned`` event."""
         robot = self.world.robot
         tip = np.asarray(tip, dtype=float)
-        if robot.wrist_room(tip, yaw) >= WRIST_MARGIN:
+        room = robot.wrist_room(tip, yaw)
+        if room >= WRIST_MARGIN:
             return yaw
-        n = max(1, round(2 * np.pi / period))
-        best = max((yaw + k * period for k in range(n)), key=lambda y: robot.wrist_room(tip, y))
-        if best != yaw:
-            self.world.events.log(self.world.t, "wrist_turned", yaw_from=float(yaw), yaw_to=float(best))
+        others = [yaw + k * period for k in range(1, max(1, round(2 * np.pi / period)))]
+        best, best_room = max(((y, robot.wrist_room(tip, y)) for y in others), key=lambda x: x[1],
+                              default=(yaw, room))
+        if best_room <= room:
+            return yaw
+        self.world.events.log(self.world.t, "wrist_turned", yaw_from=float(yaw), yaw_to=float(best))
         return float(best)
 
     def wait(self, seconds: float) -> Iterator[None]:

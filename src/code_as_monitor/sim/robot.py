@@ -142,13 +142,19 @@ class Panda:
 
         return np.array([s[0] for s in pb.getJointStates(self.body, ARM_JOINTS, physicsClientId=self.client)])
 
-    def ik(self, tip: np.ndarray, yaw: float, pitch: float = 0.0) -> list[float]:
-        """Arm joint angles (7,) placing the tool tip at ``tip`` with ``yaw`` (and ``pitch``, see module doc)."""
+    def _grasp_target(self, tip: np.ndarray, yaw: float, pitch: float) -> tuple[np.ndarray, tuple[float, ...]]:
+        """(grasp-frame position (3,) world metres, its orientation quaternion) that puts the tool tip at ``tip``."""
         import pybullet as pb
 
         orn = down_quat(yaw, pitch)
         R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
-        grasp = np.asarray(tip, float) - R[:, 2] * self.ee.tip_length
+        return np.asarray(tip, float) - R[:, 2] * self.ee.tip_length, orn
+
+    def ik(self, tip: np.ndarray, yaw: float, pitch: float = 0.0) -> list[float]:
+        """Arm joint angles (7,) placing the tool tip at ``tip`` with ``yaw`` (and ``pitch``, see module doc)."""
+        import pybullet as pb
+
+        grasp, orn = self._grasp_target(tip, yaw, pitch)
         iters = 60
         if pitch:  # a tilted tool is far from the rest posture: converge harder
             iters = 200
@@ -166,9 +172,7 @@ class Panda:
         limits the solver stops the joint at its limit and gives up the tip's position instead (centimetres)."""
         import pybullet as pb
 
-        orn = down_quat(yaw, pitch)
-        R = np.reshape(pb.getMatrixFromQuaternion(orn), (3, 3))
-        grasp = np.asarray(tip, float) - R[:, 2] * self.ee.tip_length
+        grasp, orn = self._grasp_target(tip, yaw, pitch)
         q = pb.calculateInverseKinematics(self.body, GRASP_LINK, grasp.tolist(), orn, maxNumIterations=60,
                                           residualThreshold=1e-5, physicsClientId=self.client)
         q7 = float(q[6])
