@@ -87,6 +87,17 @@ def test_a_remembered_block_the_robot_covers_entirely_is_hidden_not_contradicted
     assert robot_hidden_points(_skin(), [OccluderView(*_scene(None)[:1], CAM, _scene(None)[2], None)]) == 0.0
 
 
+def test_the_share_the_robot_hides_leaves_out_what_the_part_shows_of_itself() -> None:
+    """Half the remembered block is seen (its own pixels), the other half is under the robot: all of what the part
+    does not show of itself is hidden. Without the part's mask the seen half counts as not hidden; a part seen whole
+    leaves the robot nothing to hide."""
+    depth, block, robot = _scene(0.0)
+    assert robot_hidden_points(_skin(), [OccluderView(depth, CAM, robot, block)]) == 1.0
+    assert 0.3 < robot_hidden_points(_skin(), [OccluderView(depth, CAM, robot, None)]) < 0.7
+    depth, block, robot = _scene(None)
+    assert robot_hidden_points(_skin(), [OccluderView(depth, CAM, robot, block)]) == 0.0
+
+
 def test_a_skin_on_the_silhouettes_border_is_not_seen_through_but_one_beyond_it_is() -> None:
     """A mask's outline is known to a pixel: a remembered point projecting just past it (a thin part's skin seen
     edge-on) is not "seen past"; two pixels further it is."""

@@ -9,7 +9,8 @@ while looking well supported. Two measures here let the painter tell such an ele
 - :func:`robot_hidden_fraction`: of the pixels the part's (carved) box covers in the views, the fraction where the
   robot (its mask, from a segmenter that knows the robot or a rendering of its model at its joint state) is in
   front of it. An element over :data:`ROBOT_HIDDEN_WEAK` was painted mostly through the robot.
-- :func:`robot_hidden_points`: the same for a cloud (a remembered estimate of a part no view sees now).
+- :func:`robot_hidden_points`: the same for a cloud (a remembered estimate of a part no view sees now), over the
+  projections that do not fall on the part's own visible pixels.
 - :func:`contradiction`: how much a remembered estimate of the part (its cloud where it is believed to be now) is
   contradicted by the current views: its points where a view sees *past* them (a depth reading further than the
   point, on a pixel that is not the part's own), and the part's currently visible points that lie outside the
@@ -97,23 +98,29 @@ def robot_hidden_fraction(box: Box, views: Sequence[OccluderView]) -> float:
 
 
 def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> float:
-    """Fraction (0..1) of the in-image projections of ``points`` (N, 3), over the views that have a robot mask, that
-    fall on a robot pixel nearer than the point and not on ``own`` (the part itself, seen: it does not hide itself,
-    also when its object is held and so masked as the robot): how much of a remembered part the robot (or what it
-    holds) hides now."""
+    """Fraction (0..1) of the in-image projections of ``points`` (N, 3), over the views that have a robot mask and
+    leaving out those on ``own`` (the part itself, seen now), that fall on a robot pixel nearer than the point: how
+    much of a remembered part that the views do not show as the part the robot (or what it holds) hides now.
+
+    A projection on the part's own visible pixels is explained by the part (it does not hide itself, also when its
+    object is held and so masked as the robot): it tells nothing about the rest, so it is not counted either way. A
+    book held upright shows only its spine's top end to a camera above, and the whole remembered spine projects onto
+    that end there; counted as not hidden, it halved the share the held cover hides in the other view (0.25 against
+    0.48: stow-book (c) 2125215470, whose fresh spine, fitted across its end, read the book tilted 87 degrees). 0 when
+    every projection is on the part (nothing left for the robot to hide)."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     hid = n = 0
     for v in views:
         if v.robot is None or not len(P):
             continue
         ui, vi, z = _pixels(P, v)
+        if v.own is not None and len(ui):
+            rest = ~v.own[vi, ui]
+            ui, vi, z = ui[rest], vi[rest], z[rest]
         if not len(ui):
             continue
         d = np.asarray(v.depth, dtype=np.float64)[vi, ui]
-        front = v.robot[vi, ui] & np.isfinite(d) & (d > 0) & (d < z)
-        if v.own is not None:
-            front &= ~v.own[vi, ui]
-        hid += int(front.sum())
+        hid += int((v.robot[vi, ui] & np.isfinite(d) & (d > 0) & (d < z)).sum())
         n += len(ui)
     return hid / n if n else 0.0
 
