@@ -1,9 +1,12 @@
-"""CaM's cells of two ``cam bench`` results files side by side (e.g. ``--tracker sim`` against ``--tracker depth``),
-on the episodes both files finished: success, unmatched alarms per episode (false alarms in undisturbed
-conditions), recall and median latency, re-plans and wall time per episode. The metrics are
-:func:`code_as_monitor.bench.metrics.detection`'s, the ones ``cam report`` prints.
+"""CaM's cells of two ``cam bench`` results files side by side (e.g. ``--tracker sim`` against ``--tracker depth``,
+or the same tracker before and after a change), paired on the episodes both files finished: success, the episodes
+only one side passes, unmatched alarms per episode (false alarms in undisturbed conditions), recall and median
+latency, proactive precision (confirmed / rolled out), re-plans and wall time per episode. The metrics are
+:func:`code_as_monitor.bench.metrics.detection`'s, the ones ``cam report`` prints. ``--episodes`` also lists every
+paired episode whose outcome, re-plans, alarm count or simulated duration differ, with the record's ``cam run``
+command that replays it.
 
-Run: ``.venv/bin/python benchmarks/compare_trackers.py ORACLE.jsonl OTHER.jsonl [--names sim,depth]``.
+Run: ``.venv/bin/python benchmarks/compare_trackers.py ORACLE.jsonl OTHER.jsonl [--names sim,depth] [--episodes]``.
 """
 
 from __future__ import annotations
@@ -36,6 +39,15 @@ def _recall(d: dict[str, Any]) -> str:
     return "—" if not d["failures"] else f"{100 * d['recall']:.0f}% ({d['detected']}/{d['failures']})"
 
 
+def _precision(d: dict[str, Any]) -> str:
+    return "—" if not d.get("proactive_alarms") else f"{d['proactive_confirmed']}/{d['proactive_alarms']}"
+
+
+def _signature(r: dict[str, Any]) -> tuple:
+    """What a replayed episode must reproduce: outcome, re-plans, alarms, simulated duration (0.01 s)."""
+    return (bool(r["success"]), r["replans"], len(r.get("alarms") or ()), round(float(r.get("sim_time_s") or 0.0), 2))
+
+
 def _lat(d: dict[str, Any]) -> str:
     return "—" if d["latency_median"] != d["latency_median"] else f"{d['latency_median']:.2f}"
 
@@ -45,6 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("oracle")
     ap.add_argument("other")
     ap.add_argument("--names", default="sim,depth", help="column names of the two files")
+    ap.add_argument("--episodes", action="store_true",
+                    help="list the paired episodes that ran differently (outcome, re-plans, alarms, duration)")
     ap.add_argument("--until", type=float, default=None,
                     help="only episodes finished before this time (epoch seconds), e.g. before the code changed")
     args = ap.parse_args(argv)
@@ -52,9 +66,10 @@ def main(argv: list[str] | None = None) -> int:
     a, b = load(args.oracle, args.until), load(args.other, args.until)
     common = sorted(set(a) & set(b))
     conds = list(dict.fromkeys(k[0] for k in common))
-    print(f"| Condition | n | SR {na} | SR {nb} | {nb} - {na} (points) | FA/ep {na} | FA/ep {nb} | recall {na} | "
-          f"recall {nb} | latency s {na} / {nb} | re-plans/ep {na} / {nb} | wall s/ep {na} / {nb} |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print(f"| Condition | n | SR {na} | SR {nb} | {nb} - {na} (points) | only {na} / only {nb} ok | FA/ep {na} | "
+          f"FA/ep {nb} | recall {na} | recall {nb} | latency s {na} / {nb} | proactive P {na} / {nb} | "
+          f"re-plans/ep {na} / {nb} | wall s/ep {na} / {nb} |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for c in conds:
         ks = [k for k in common if k[0] == c]
         ra, rb = [a[k] for k in ks], [b[k] for k in ks]
@@ -64,13 +79,21 @@ def main(argv: list[str] | None = None) -> int:
         und = bool(ra[0].get("undisturbed"))
         rp_a, rp_b = (sum(r["replans"] for r in rs) / len(rs) for rs in (ra, rb))
         w_a, w_b = (sum(r.get("wall_time_s") or 0.0 for r in rs) / len(rs) for rs in (ra, rb))
-        print(f"| {c} | {len(ks)} | {sa:.0f} | {sb:.0f} | {sb - sa:+.0f} | {_fa(da, und)} | {_fa(db, und)} | "
-              f"{_recall(da)} | {_recall(db)} | {_lat(da)} / {_lat(db)} | {rp_a:.1f} / {rp_b:.1f} | "
-              f"{w_a:.0f} / {w_b:.0f} |")
+        only_a = sum(x["success"] and not y["success"] for x, y in zip(ra, rb))
+        only_b = sum(y["success"] and not x["success"] for x, y in zip(ra, rb))
+        print(f"| {c} | {len(ks)} | {sa:.1f} | {sb:.1f} | {sb - sa:+.1f} | {only_a} / {only_b} | {_fa(da, und)} | "
+              f"{_fa(db, und)} | {_recall(da)} | {_recall(db)} | {_lat(da)} / {_lat(db)} | "
+              f"{_precision(da)} / {_precision(db)} | {rp_a:.1f} / {rp_b:.1f} | {w_a:.0f} / {w_b:.0f} |")
     ua = [a[k] for k in common if a[k].get("undisturbed")]
     ub = [b[k] for k in common if b[k].get("undisturbed")]
     da, db = detection([a[k] for k in common]), detection([b[k] for k in common])
-    print(f"\nepisodes in both files: {len(common)}; in one only: {len(set(a) ^ set(b))}")
+    differ = [k for k in common if _signature(a[k]) != _signature(b[k])]
+    print(f"\nepisodes in both files: {len(common)}; in one only: {len(set(a) ^ set(b))}; "
+          f"ran differently: {len(differ)}")
+    if args.episodes:
+        for k in differ:
+            print(f"  {k[0]} seed {k[1]} episode {k[2]}: (success, re-plans, alarms, sim s) {na} {_signature(a[k])}, "
+                  f"{nb} {_signature(b[k])}; replay: {b[k].get('run', '?')}")
     if ua:
         print(f"false_alarms_per_undisturbed_episode_{na}: {detection(ua)['unmatched_per_ep']:.3f} /ep (n={len(ua)})")
         print(f"false_alarms_per_undisturbed_episode_{nb}: {detection(ub)['unmatched_per_ep']:.3f} /ep (n={len(ub)})")
