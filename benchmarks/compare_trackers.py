@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 from typing import Any
 
 from code_as_monitor.bench.metrics import detection
@@ -62,8 +64,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--until", type=float, default=None,
                     help="only episodes finished before this time (epoch seconds), e.g. before the code changed")
     args = ap.parse_args(argv)
+    for path in (args.oracle, args.other):
+        if not os.path.isfile(path):
+            print(f"compare_trackers: no results file {path!r}", file=sys.stderr)
+            return 2
+    if args.names.count(",") != 1:
+        print(f"compare_trackers: --names must be two comma-separated names, got {args.names!r}", file=sys.stderr)
+        return 2
     na, nb = args.names.split(",")
-    a, b = load(args.oracle, args.until), load(args.other, args.until)
+    try:
+        a, b = load(args.oracle, args.until), load(args.other, args.until)
+    except (json.JSONDecodeError, KeyError) as exc:
+        print(f"compare_trackers: not a cam bench results file ({type(exc).__name__}: {exc})", file=sys.stderr)
+        return 2
     common = sorted(set(a) & set(b))
     conds = list(dict.fromkeys(k[0] for k in common))
     print(f"| Condition | n | SR {na} | SR {nb} | {nb} - {na} (points) | only {na} / only {nb} ok | FA/ep {na} | "
