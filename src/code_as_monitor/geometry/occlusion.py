@@ -98,16 +98,16 @@ def robot_hidden_fraction(box: Box, views: Sequence[OccluderView]) -> float:
 
 
 def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> float:
-    """Fraction (0..1) of the in-image projections of ``points`` (N, 3), over the views that have a robot mask and
-    leaving out those on ``own`` (the part itself, seen now), that fall on a robot pixel nearer than the point: how
-    much of a remembered part that the views do not show as the part the robot (or what it holds) hides now.
+    """How much of a remembered part the robot (or what it holds) hides now: of the in-image projections of
+    ``points`` (N, 3) in the views that have a robot mask, leaving out those on ``own`` (the part itself, seen now),
+    the fraction (0..1) that falls on a robot pixel nearer than the point.
 
     A projection on the part's own visible pixels is explained by the part (it does not hide itself, also when its
-    object is held and so masked as the robot): it tells nothing about the rest, so it is not counted either way. A
-    book held upright shows only its spine's top end to a camera above, and the whole remembered spine projects onto
-    that end there; counted as not hidden, it halved the share the held cover hides in the other view (0.25 against
-    0.48: stow-book (c) 2125215470, whose fresh spine, fitted across its end, read the book tilted 87 degrees). 0 when
-    every projection is on the part (nothing left for the robot to hide)."""
+    object is held and so masked as the robot): it tells nothing about the rest, so it counts neither way. A book
+    held upright shows a camera above only its spine's top end, and the whole remembered spine projects onto that end
+    there; counted as not hidden, those projections brought the share to 0.25 instead of 0.48 (stow-book (c)
+    2125215470, whose fresh spine, fitted across its end, then read the book tilted 87 degrees). 0 when every
+    projection is on the part (nothing left for the robot to hide)."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     hid = n = 0
     for v in views:
