@@ -125,6 +125,41 @@ def robot_hidden_points(points: np.ndarray, views: Sequence[OccluderView]) -> fl
     return hid / n if n else 0.0
 
 
+def ball_pixel_box(camera: CameraModel, centre: np.ndarray, radius: float, shape: tuple[int, ...],
+                   margin_px: int = 2) -> tuple[int, int, int, int] | None:
+    """``(row0, row1, col0, col1)``, inclusive: a box of an (H, W) image holding every pixel whose ray meets the ball
+    of ``radius`` metres around ``centre`` (3,) world, so every pixel whose lifted point can lie in it (a lifted point
+    lies on its pixel's ray, and the ball's projection lies inside that of its bounding cube); ``margin_px`` more on
+    each side. None when the cube is not wholly in front of the camera (any pixel may then). Empty (row0 > row1 or
+    col0 > col1) when the ball projects outside the image."""
+    c = np.asarray(centre, dtype=np.float64).reshape(3)
+    corners = c + radius * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    uv, z = camera.project(corners)
+    if not (np.all(z > 1e-6) and np.all(np.isfinite(uv))):
+        return None
+    H, W = int(shape[0]), int(shape[1])
+    c0, c1 = int(np.floor(uv[:, 0].min())) - margin_px, int(np.ceil(uv[:, 0].max())) + margin_px
+    r0, r1 = int(np.floor(uv[:, 1].min())) - margin_px, int(np.ceil(uv[:, 1].max())) + margin_px
+    return max(r0, 0), min(r1, H - 1), max(c0, 0), min(c1, W - 1)
+
+
+def any_point_near(masks: Sequence[np.ndarray], boxes: Sequence[tuple[int, int, int, int]], lifted: Sequence,
+                   centre: np.ndarray, radius: float) -> bool:
+    """Whether a point lifted from ``masks`` (one (H, W) mask per view) lies within ``radius`` metres of ``centre``
+    (3,) world, lifting only the masks' pixels inside ``boxes`` (:func:`ball_pixel_box` of that ball, one per view:
+    every such point's pixel is in them); ``lifted``: per view, an object with ``points(mask) -> (N, 3)`` (e.g.
+    :class:`~code_as_monitor.geometry.backproject.LiftedView`)."""
+    c = np.asarray(centre, dtype=np.float64).reshape(3)
+    for m, (r0, r1, c0, c1), lv in zip(masks, boxes, lifted):
+        m = np.asarray(m, dtype=bool)
+        inside = np.zeros_like(m)
+        inside[r0:r1 + 1, c0:c1 + 1] = m[r0:r1 + 1, c0:c1 + 1]
+        P = lv.points(inside) if inside.any() else np.empty((0, 3))
+        if len(P) and float(np.min(np.linalg.norm(P - c, axis=1))) <= radius:
+            return True
+    return False
+
+
 def _pixels(P: np.ndarray, v: OccluderView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cols, rows, depths along the axis) of the points of ``P`` (N, 3) that project into ``v``'s image."""
     uv, z = v.camera.project(P)
@@ -185,5 +220,15 @@ def contradiction(cloud: np.ndarray, centre: np.ndarray, visible: np.ndarray,
     return (seen / n if n else 0.0), outside
 
 
-__all__ = ["OUTSIDE_TOL", "ROBOT_HIDDEN_WEAK", "SEEN_THROUGH_TOL", "OccluderView", "box_corners", "contradiction",
-           "robot_hidden_fraction", "robot_hidden_points"]
+__all__ = [
+    "OUTSIDE_TOL",
+    "ROBOT_HIDDEN_WEAK",
+    "SEEN_THROUGH_TOL",
+    "OccluderView",
+    "any_point_near",
+    "ball_pixel_box",
+    "box_corners",
+    "contradiction",
+    "robot_hidden_fraction",
+    "robot_hidden_points",
+]

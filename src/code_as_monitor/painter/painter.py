@@ -21,6 +21,7 @@ from code_as_monitor.core.constraints import Subgoal
 from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
 from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
+from code_as_monitor.geometry.occlusion import any_point_near, ball_pixel_box
 from code_as_monitor.painter.carry_over import CarryDecision, Key, KnownElement, candidate, carry_over, key_of
 from code_as_monitor.painter.draw import draw_elements
 from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
@@ -197,14 +198,18 @@ class Painter:
         robot = obs.robot
         if robot is None or robot.gripper < 0.5 or not obs.objects:
             return []
-        tip = robot.tip
-        held = []
+        tip, held = robot.tip, []
+        boxes = [None if getattr(v, "camera", None) is None else  # an object with no pixel there is not lifted
+                 ball_pixel_box(v.camera, tip, HELD_RADIUS, v.depth.shape) for v, _, _ in per_view]
         for name in obs.objects:
             if name == ROBOT:
                 continue
             try:
-                clouds = [lifted.points(self.segmenter.segment(v, ElementSpec(name, name)).instance_mask)
-                          for v, lifted, _ in per_view]
+                masks = [self.segmenter.segment(v, ElementSpec(name, name)).instance_mask for v, _, _ in per_view]
+                if all(b is not None for b in boxes) and not any_point_near(
+                        masks, boxes, [lv for _, lv, _ in per_view], tip, HELD_RADIUS):
+                    continue
+                clouds = [lifted.points(m) for m, (_, lifted, _) in zip(masks, per_view)]
             except CamError:
                 continue
             P = np.vstack([c for c in clouds if len(c)] or [np.empty((0, 3))])
