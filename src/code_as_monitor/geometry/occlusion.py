@@ -147,14 +147,12 @@ def any_point_near(masks: Sequence[np.ndarray], boxes: Sequence[tuple[int, int, 
                    centre: np.ndarray, radius: float) -> bool:
     """Whether a point lifted from ``masks`` (one (H, W) mask per view) lies within ``radius`` metres of ``centre``
     (3,) world, lifting only the masks' pixels inside ``boxes`` (:func:`ball_pixel_box` of that ball, one per view:
-    every such point's pixel is in them); ``lifted``: per view, an object with ``points(mask) -> (N, 3)`` (e.g.
-    :class:`~code_as_monitor.geometry.backproject.LiftedView`)."""
+    every such point's pixel is in them); ``lifted``: per view, a
+    :class:`~code_as_monitor.geometry.backproject.LiftedView` (its window form of ``points``)."""
     c = np.asarray(centre, dtype=np.float64).reshape(3)
     for m, (r0, r1, c0, c1), lv in zip(masks, boxes, lifted):
-        m = np.asarray(m, dtype=bool)
-        inside = np.zeros_like(m)
-        inside[r0:r1 + 1, c0:c1 + 1] = m[r0:r1 + 1, c0:c1 + 1]
-        P = lv.points(inside) if inside.any() else np.empty((0, 3))
+        window = np.asarray(m, dtype=bool)[r0:r1 + 1, c0:c1 + 1]
+        P = lv.points(window, corner=(r0, c0)) if window.any() else np.empty((0, 3))
         if len(P) and float(np.min(np.linalg.norm(P - c, axis=1))) <= radius:
             return True
     return False
