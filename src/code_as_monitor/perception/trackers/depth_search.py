@@ -144,7 +144,7 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
 
 def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene: np.ndarray,
            tiers: list[list[np.ndarray]], plane: Plane | None = None, climb: bool = False,
-           held: bool = False) -> tuple[np.ndarray, Support] | None:
+           held: bool = False, need: int | None = None) -> tuple[np.ndarray, Support] | None:
     """Register from each guess of a tier in order (most likely first), first with the finest
     correspondence distance only (a guess already close must not be pulled off by a neighbour's
     surface), then, when none passes, coarse to fine; the next tier (falls) only when nothing passed, from a
@@ -160,7 +160,8 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
     distance, once, rather than twice: a handle in closed jaws, registered from where it was before the pull's step,
     slid 3.3 cm along the drawer's front, where its model saw 144 points against the carry's 95.
     A pose that sinks the body more than ``plane_band`` into the support ``plane`` is refused: points behind a
-    surface are only occluded to the cameras."""
+    surface are only occluded to the cameras. ``need``: the fewest model points a result must see (default:
+    ``min_seen``, and ``min_seen_frac`` of those seen at paint time)."""
     import small_gicp
 
     model = body.model
@@ -173,7 +174,7 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
         return None
     if c.registration == "GICP":
         small_gicp.estimate_covariances(source, num_neighbors=10)
-    need = max(c.min_seen, int(c.min_seen_frac * body.ref_seen))
+    need = max(c.min_seen, int(c.min_seen_frac * body.ref_seen)) if need is None else need
     fine = c.max_correspondence[-1:]
     guesses = [T for tier in tiers for T in tier]
     at_guess: list[Support | None] = [None] * len(guesses)
