@@ -5,10 +5,11 @@ See :mod:`code_as_monitor.perception.trackers.depth` for the method. Poses are (
 model frame (the world at paint time) to the world now.
 
 How much of the model must be seen. Tracking asks a pose to see ``min_seen_frac`` of the model points seen at paint
-time. A fresh segmentation of the object is evidence of its own: the segmenter found the object there. When no pose
-passes tracking's bar, a pose that sees ``min_seen`` model points, is contradicted no more than tracking allows, and
-puts :data:`SEGMENT_SHARE` of the segmentation's points on the model's surface has found the object, even when it now
-shows only a small part of itself (a book lowered into its shelf: its model saw 498 points when painted in the
+time. A fresh segmentation of the object is evidence of its own: the segmenter found the object there. For a body the
+gripper carried (searched where the end-effector's motion took it, :func:`keep_known`), when no pose passes tracking's
+bar, the pose registered from there that sees ``min_seen`` model points, is contradicted no more than tracking allows,
+and puts :data:`SEGMENT_SHARE` of the segmentation's points on the model's surface has found the object, even when it
+now shows only a small part of itself (a book lowered into its shelf: its model saw 498 points when painted in the
 gripper; the slot and the gripper left 34 in view; stow-book (b), seed 1822091572).
 """
 
@@ -44,15 +45,16 @@ def on_surface(body: BodyState, T: np.ndarray, cloud: np.ndarray, reach: float) 
 
 
 def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: list[ViewData],
-             plane: Plane | None) -> bool:
+             plane: Plane | None, on_segmentation: bool = False) -> bool:
     """Re-acquire a lost body from a fresh segmentation of its object (``cloud`` (N, 3), world): its model is
     registered to the cloud from where it was searched, from there shifted onto the cloud's centroid, and
     from the two poses along the model's long axis that the views explain best (:func:`_along_axis`), under
     the search's checks (evidence in the views, at most ``max_contradiction``; at most ``max_rotation`` turned), or,
-    when none passes them, on the segmentation's own evidence (the module docstring). Found, the body keeps its model
-    at the new pose (its parts keep their relation to it) and True is returned; found on the segmentation's evidence,
-    the points it sees now become the reference tracking's ``min_seen_frac`` is taken of (the book in its shelf is
-    followed on what the slot and the gripper leave in view)."""
+    with ``on_segmentation``, when none passes them, registered from where it was searched alone on the segmentation's
+    own evidence (the module docstring). Found, the body keeps its model at the new pose (its parts keep their relation
+    to it) and True is returned; found on the segmentation's evidence, the points it sees now become the reference
+    tracking's ``min_seen_frac`` is taken of (the book in its shelf is followed on what the slot and the gripper leave
+    in view)."""
     if body.model is None or len(cloud) < c.min_points:
         return False
     cloud = np.asarray(cloud, dtype=np.float64)
@@ -62,8 +64,10 @@ def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: l
     tiers = [[T0, shifted, *_along_axis(c, body, T0, cloud, views)]]
     plane = None if body.model.in_plane else plane
     found = search(c, body, views, cloud, tiers, plane)
+    if found is None and not on_segmentation:
+        return False
     if found is None:  # showing little of itself: on the segmentation's own evidence
-        found = search(c, body, views, cloud, tiers, plane, need=c.min_seen)
+        found = search(c, body, views, cloud, [[T0]], plane, need=c.min_seen)
         reach = 1.5 * body.model.voxel + c.depth_tol
         if found is None or on_surface(body, found[0], cloud, reach) < SEGMENT_SHARE:
             return False
@@ -77,21 +81,28 @@ def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: l
 def keep_known(c: DepthTrackerConfig, body: BodyState, bodies: Mapping[Owner, BodyState], new: Element,
                views: list[ViewData], plane: Plane | None) -> bool:
     """Whether lost ``body`` keeps its known model rather than take ``new``, the re-paint of one of its elements: only
-    when the painter calls the re-paint weak (``new.support.weak()``: a side assumed, few points or views, its part
-    unseen) and the known model relocates onto the re-paint's segmentation (:func:`relocate`); its parent in
-    ``bodies`` (the whole object), when lost, is relocated onto the object's segmentation too. A weak paint of a
-    half-hidden object is centimetres off (the painter's element benchmark: a book in its shelf, 97 mm), while the
-    known model, painted when the object was in view and placed where the fresh segmentation says it is, keeps its
-    elements where they are on it."""
+    for a body the gripper carried when it was lost (``held``: where the end-effector's motion took it is where it is
+    searched), when the painter calls the re-paint weak (``new.support.weak()``: a side assumed, few points or views,
+    its part unseen) and the known model relocates onto the re-paint's segmentation (:func:`relocate`, also on the
+    segmentation's own evidence). A body at rest has no such prior: a book's spine, re-painted weak while the
+    gripper closed on the book, relocated 41 degrees turned (stow-book (a), seed 1230431832). Its parent in
+    ``bodies`` (the whole object), when lost, is relocated onto the object's segmentation too, searched from where
+    the part's relation to it puts it (a whole book that only its parts use is not followed once lost, nor carried
+    with the gripper: searched from where it was lost, 11 cm above, the visible strip of its covers fitted it there).
+    A weak paint of a half-hidden object is centimetres off (the painter's element benchmark: a book in its shelf, 97
+    mm), while the known model, painted when the object was in view and placed where the fresh segmentation says it
+    is, keeps its elements where they are on it."""
     sup = new.support
     cloud = new.cloud if new.cloud is not None and len(new.cloud) else new.object_cloud
-    if body.model is None or sup is None or not sup.weak() or cloud is None:
+    if body.model is None or not body.held or sup is None or not sup.weak() or cloud is None:
         return False
-    if not relocate(c, body, cloud, views, plane):
+    if not relocate(c, body, cloud, views, plane, on_segmentation=True):
         return False
     parent = bodies.get(body.parent) if body.parent is not None else None
     if parent is not None and parent.lost and new.object_cloud is not None and len(new.object_cloud):
-        relocate(c, parent, new.object_cloud, views, plane)
+        if body.rel is not None:  # searched where the part found says it is, not where it was lost
+            parent.T_search = body.T @ invert(body.rel)
+        relocate(c, parent, new.object_cloud, views, plane, on_segmentation=True)
     return True
 
 
