@@ -31,10 +31,10 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    re-segments its elements (the agent re-runs the painter); their clouds become the body's new model (a part
    re-painted from its whole object's masks where its earlier paint had seen it is refused: stale), except
    that a lost whole object whose known model registers to its new segmentation keeps that model
-   (:func:`.depth_relocate.relocate`), and its parts their place on it, and that a weak re-paint does not replace a
-   known model its segmentation relocates (:func:`.depth_relocate.keep_known`). A part too small to register alone
-   (:func:`.depth_detect.is_small`) whose object is lost, with no other part moving it, is not searched for (its
-   few points fit nearby surfaces): stale rather than wrong;
+   (:func:`.depth_relocate.relocate`), and its parts their place on it, and that a carried body's weak re-paint does
+   not replace its known model when that relocates (:func:`.depth_relocate.keep_known`). A part too small to
+   register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part moving it, is not searched
+   for (its few points fit nearby surfaces): stale rather than wrong;
 5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted
    longer ago; then a part whose registration left where its object carries it without ``min_seen`` points
    seen off the object's surface slid along it (a pen's tip hidden in a holder matched the pen's visible
