@@ -101,3 +101,21 @@ def test_on_surface_counts_the_segmentation_on_the_posed_model():
     assert on_surface(body, T, mixed, 0.01) == pytest.approx((len(far) // 3) / len(mixed))
     assert on_surface(body, T, np.zeros((0, 3)), 0.01) == 0.0
     assert 0.5 < SEGMENT_SHARE < 1.0
+
+
+def test_a_book_stowed_in_its_shelf_is_not_read_as_dropped_with_depth():
+    """Stow-book (b) 1822091572 with the depth tracker (kb planner, sim masks): the held book, carried fast out of view
+    and lowered into the shelf, was lost; its weak re-paint from the top the slot leaves in view became its model,
+    4.5 cm off, its spine stayed stale, and the stowed book read "dropped ... not in the slot of bookshelf": a re-grasp
+    out of the shelf, then stuck. Its known model, relocated, now keeps it where it is."""
+    pytest.importorskip("pybullet")
+    from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
+
+    cfg = ClosedLoopConfig(task="stow-book", seed=1822091572, task_params={"disturbance": "b"}, tracker="depth",
+                           video=False, max_replans=10, deadline_s=0.5)
+    summary = run_closed_loop(cfg)
+    assert summary["success"], summary["reason"]
+    # the book really leaves the gripper once (12.2 s: on the table, where the tracker reads it, in the simulator
+    # too) and is read so; a book standing in its slot is never read as "not in the slot"
+    in_slot = [a for a in summary["episode"]["alarms"] if "not in the slot" in a["reason"]]
+    assert not in_slot, in_slot
