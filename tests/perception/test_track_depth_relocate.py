@@ -72,10 +72,10 @@ def _stow(min_seen_frac: float) -> tuple[list[np.ndarray], list]:
 
 def test_a_weak_repaint_of_a_book_in_its_shelf_keeps_the_known_model():
     """The tracker's bar is raised (half the points seen at paint time) so that the top centimetre the slot leaves in
-    view cannot pass it, as the simulator's book lowered into its shelf could not (34 of 498 points seen). The book is
+    view cannot pass it, as the simulator's book lowered into its shelf could not (34 of 473 points seen). The book is
     lost on the way, re-painted in the slot from its top alone (a weak paint: its hidden side assumed, centimetres
     high), and the known model, relocated on the re-paint's segmentation, brings the painted centre back within
-    5 mm; before, the weak re-paint became the model (2.7-8.6 cm high)."""
+    5 mm; before, the weak re-paint became the model (8.6 cm high)."""
     errors, repaints = _stow(min_seen_frac=0.5)
     assert any(e is None for e in errors[:8])  # lost on the way down
     assert repaints and repaints[-1] is not None and repaints[-1].support.weak()
@@ -86,7 +86,8 @@ def test_a_weak_repaint_of_a_book_in_its_shelf_keeps_the_known_model():
 
 
 def test_on_surface_counts_the_segmentation_on_the_posed_model():
-    """All of a model's own points lie on it; moved 5 cm away, none do, and 3 of 4 points off it leave a quarter."""
+    """All of a model's own points lie on it; moved 50 cm away, none do; a third of them with all the moved ones: a
+    quarter."""
     P = np.array([[x, y, z] for x in np.linspace(0, 0.1, 11) for y in np.linspace(0, 0.1, 11) for z in (0.0, 0.05)])
     body = BodyState(("box", ""), RigidBody(P, 0.005, None, 0.0))
     model = body.model

@@ -9,7 +9,7 @@ time. A fresh segmentation of the object is evidence of its own: the segmenter f
 gripper carried (searched where the end-effector's motion took it, :func:`keep_known`), when no pose passes tracking's
 bar, the pose registered from there that sees ``min_seen`` model points, is contradicted no more than tracking allows,
 and puts :data:`SEGMENT_SHARE` of the segmentation's points on the model's surface has found the object, even when it
-now shows only a small part of itself (a book lowered into its shelf: its model saw 498 points when painted in the
+now shows only a small part of itself (a book lowered into its shelf: its model saw 473 points when painted in the
 gripper; the slot and the gripper left 34 in view; stow-book (b), seed 1822091572).
 """
 
