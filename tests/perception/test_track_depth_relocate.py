@@ -13,7 +13,7 @@ from code_as_monitor.painter import Painter
 from code_as_monitor.perception import SegmenterConfig, make_segmenter
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig, make_tracker
 from code_as_monitor.perception.trackers.depth_body import RigidBody
-from code_as_monitor.perception.trackers.depth_relocate import SEGMENT_SHARE, on_surface
+from code_as_monitor.perception.trackers.depth_relocate import SEGMENT_SHARE, share_on_model
 from code_as_monitor.perception.trackers.depth_search import BodyState
 
 CAMS = [camera("front", (0.55, -0.05, 0.55), (0.0, 0.0, 0.08), fov=60.0),
@@ -85,7 +85,7 @@ def test_a_weak_repaint_of_a_book_in_its_shelf_keeps_the_known_model():
     assert np.linalg.norm(errors[-1]) < 0.005, errors[-1]
 
 
-def test_on_surface_counts_the_segmentation_on_the_posed_model():
+def test_share_on_model_counts_the_segmentation_on_the_posed_model():
     """All of a model's own points lie on it; moved 50 cm away, none do; a third of them with all the moved ones: a
     quarter."""
     P = np.array([[x, y, z] for x in np.linspace(0, 0.1, 11) for y in np.linspace(0, 0.1, 11) for z in (0.0, 0.05)])
@@ -93,14 +93,14 @@ def test_on_surface_counts_the_segmentation_on_the_posed_model():
     model = body.model
     assert model is not None
     T = np.eye(4)
-    assert on_surface(body, T, model.points, 0.01) == pytest.approx(1.0)
+    assert share_on_model(body, T, model.points, 0.01) == pytest.approx(1.0)
     T_far = np.eye(4)
     T_far[:3, 3] = [0.0, 0.0, 0.5]
-    assert on_surface(body, T_far, model.points, 0.01) == 0.0
+    assert share_on_model(body, T_far, model.points, 0.01) == 0.0
     far = model.points + np.array([0.0, 0.0, 0.5])
     mixed = np.vstack([model.points[: len(far) // 3], far[: len(far)]])
-    assert on_surface(body, T, mixed, 0.01) == pytest.approx((len(far) // 3) / len(mixed))
-    assert on_surface(body, T, np.zeros((0, 3)), 0.01) == 0.0
+    assert share_on_model(body, T, mixed, 0.01) == pytest.approx((len(far) // 3) / len(mixed))
+    assert share_on_model(body, T, np.zeros((0, 3)), 0.01) == 0.0
     assert 0.5 < SEGMENT_SHARE < 1.0
 
 

@@ -27,21 +27,20 @@ from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, s
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData
 
 SEGMENT_SHARE = 0.75
-"""The share of a fresh segmentation's points a relocated model must explain (within :func:`on_surface`'s reach of
+"""The share of a fresh segmentation's points a relocated model must explain (within :func:`share_on_model`'s reach of
 the model's points) when it passes on ``min_seen`` points rather than tracking's bar: three quarters of what the
 segmenter found there is the known object's surface."""
 
 
-def on_surface(body: BodyState, T: np.ndarray, cloud: np.ndarray, reach: float) -> float:
-    """The share of ``cloud`` (N, 3) world points within ``reach`` metres of ``body``'s model points at pose ``T``."""
-    from scipy.spatial import cKDTree
-
+def share_on_model(body: BodyState, T: np.ndarray, cloud: np.ndarray, reach: float) -> float:
+    """The share of ``cloud`` (N, 3) world points within ``reach`` metres of ``body``'s model points at pose ``T`` (the
+    model's own KdTree, as :func:`.depth_claims.on_surface` asks it of a body's points)."""
     assert body.model is not None
-    local = apply(invert(T), np.asarray(cloud, dtype=np.float64))
+    local = apply(invert(T), np.asarray(cloud, dtype=np.float64).reshape(-1, 3))
     if not len(local):
         return 0.0
-    d, _ = cKDTree(body.model.points).query(local, distance_upper_bound=reach)
-    return float(np.mean(np.isfinite(d)))
+    _, d2 = body.model.tree.batch_nearest_neighbor_search(local)
+    return float(np.mean(np.sqrt(np.asarray(d2)) <= reach))
 
 
 def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: list[ViewData],
@@ -69,7 +68,7 @@ def relocate(c: DepthTrackerConfig, body: BodyState, cloud: np.ndarray, views: l
     if found is None:  # showing little of itself: on the segmentation's own evidence
         found = search(c, body, views, cloud, [[T0]], plane, need=c.min_seen)
         reach = 1.5 * body.model.voxel + c.depth_tol
-        if found is None or on_surface(body, found[0], cloud, reach) < SEGMENT_SHARE:
+        if found is None or share_on_model(body, found[0], cloud, reach) < SEGMENT_SHARE:
             return False
         body.ref_seen = max(found[1].seen, c.min_seen)  # followed on what it shows now
     body.T_prev = body.T = body.T_search = found[0]
