@@ -40,9 +40,13 @@ GROW_LIMIT = 2.0
 """A side grows at most this many times the part's largest observed extent; one that gets there unbounded is
 hidden from every view, and the part is then taken to be as deep as the smaller of its other two extents."""
 FACE_ALONE = 0.25
-"""An axis along which the points span less than this fraction of the smaller of the other two extents is seen on
-one face alone (a face's points span only the depth noise along its normal; a solid seen on two faces spans its
-whole extent): its depth is then the compact-solid assumption, bounded by the face's interior carving."""
+"""An axis along which the points span less than this fraction of the smaller of the other two extents (plus the
+depth noise's own span, :data:`NOISE_SPAN`) is seen on one face alone (a face's points span only the depth noise
+along its normal; a solid seen on two faces spans its whole extent): its depth is then the compact-solid
+assumption, bounded by the face's interior carving."""
+NOISE_SPAN = 3.29
+"""The central 90 % of a Gaussian spans this many standard deviations (2 x 1.645): what a face's points span along
+its normal from the depth noise alone (``Box.noise``), the span :func:`_spread` measures."""
 
 
 
@@ -136,7 +140,7 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
     a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
     if compact and a in grow_axes and not out.hidden[:, a].any():  # a compact solid's depth: see _assume_depth
         prior = min(ext[b] for b in range(3) if b != a)
-        if _spread(box, a, points) < FACE_ALONE * prior:
+        if _spread(box, a, points) < FACE_ALONE * prior + NOISE_SPAN * box.noise:
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
         elif ext[a] + out.grown[:, a].sum() > (1.0 + FACE_ALONE) * prior:
             _assume_depth(out, ext, a, out.grown[:, a].copy())
