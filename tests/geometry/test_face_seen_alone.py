@@ -143,7 +143,7 @@ def _pile(centre: tuple[float, float], yaw_deg: float, half: float = 0.01) -> li
 def test_a_small_block_seen_on_its_top_alone_under_depth_noise_says_so(centre, yaw, seed) -> None:
     """With 2 mm of depth noise a face's points span about 3.3 standard deviations along its normal (5-6 mm here),
     more than a quarter of a 20 mm block's width: before, the middle block of a pile was then taken for a solid 4-6 mm
-    thick, measured, its centre 7-13 mm high and not flagged (sweep-half's worst elements under noise). The face-alone
+    thick, measured, its centre 8-11 mm off and not flagged (sweep-half's worst elements under noise). The face-alone
     test now allows for the noise it measured: the block gets the compact-solid depth, an assumption it reports, and
     its centre is either close or uncertain by at least half its error (the element benchmark's "does the painter
     know?")."""
