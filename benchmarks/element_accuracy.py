@@ -45,16 +45,13 @@ from code_as_monitor.core import Constraint, ElementSpec, Observation, Phase, Su
 from code_as_monitor.painter import Painter
 from code_as_monitor.perception import SegmenterConfig, make_segmenter
 from code_as_monitor.planning import ConstraintGenerator, legend_specs
-from code_as_monitor.sim.cameras import CameraSpec, SimCamera
+from code_as_monitor.sim.cameras import SimCamera, shoulder_cameras
 from code_as_monitor.sim.env import make_env
 from code_as_monitor.sim.tasks import task_names
 from code_as_monitor.vlm.backend import VLMBackendConfig, make_backend
 
 W, H = 320, 240
-SHOULDERS = (
-    CameraSpec("shoulder_left", eye=(0.3, 0.5, 0.75), target=(0.3, 0.0, 0.0), width=W, height=H, fov_y_deg=60.0),
-    CameraSpec("shoulder_right", eye=(0.3, -0.5, 0.75), target=(0.3, 0.0, 0.0), width=W, height=H, fov_y_deg=60.0),
-)
+SHOULDERS = tuple(shoulder_cameras(W, H))
 VIEW_SETS = {"default": ("front", "top"), "shoulders": ("shoulder_left", "shoulder_right"), "front": ("front",)}
 NOISES_MM = (0.0, 2.0)
 TWO_VIEW_SETS = ("default", "shoulders")

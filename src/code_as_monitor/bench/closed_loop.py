@@ -60,6 +60,8 @@ class ClosedLoopConfig:
             ``MonitorConfig.allow_unconfined``).
         ablation: a named ablation setting of the monitor (:mod:`code_as_monitor.agent.ablations`: ``full``,
             ``mv-off``, ``cs-off``, ``cp-off``, ``reactive-only``, ``proactive-only``).
+        cameras: a named camera set (:data:`code_as_monitor.sim.cameras.CAMERA_SETS`): ``task`` the task's own views,
+            or ``front-top``, ``front``, ``shoulders``, ``rlbench`` for every task (to see what other views do).
     """
 
     task: str = "stack-in-order"
@@ -79,6 +81,7 @@ class ClosedLoopConfig:
     deadline_s: float = 0.020
     allow_unconfined: bool = False
     ablation: str = "full"
+    cameras: str = "task"
 
     def __post_init__(self) -> None:
         name = "ClosedLoopConfig"
@@ -93,6 +96,8 @@ class ClosedLoopConfig:
             if not isinstance(getattr(self, f), dict):
                 raise ConfigError(f"{name}.{f} must be a dict, got {getattr(self, f)!r}")
         ablation_fields(self.ablation)
+        if not isinstance(self.cameras, str) or not self.cameras:
+            raise ConfigError(f"{name}.cameras must be the name of a camera set, got {self.cameras!r}")
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""
@@ -111,10 +116,16 @@ def check_choices(cfg: ClosedLoopConfig) -> None:
     """Raise UnknownChoiceError/ConfigError naming a bad task, backend, segmenter or tracker (and its
     options) before anything is created or run."""
     import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
+    from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.sim.tasks.base import TaskConfig
 
     TaskConfig.from_name(cfg.task, **cfg.task_params)
     cfg.monitor_config().check()
+    specs = camera_set(cfg.cameras, cfg.width, cfg.height)
+    keep = cfg.monitor_config().cameras
+    if specs is not None and keep is not None and not set(keep) <= {c.name for c in specs}:
+        raise ConfigError(f"ablation {cfg.ablation!r} keeps the view(s) {', '.join(keep)}, which camera set "
+                          f"{cfg.cameras!r} does not have ({', '.join(c.name for c in specs)})")
 
 
 def make_checked_backend(cfg: ClosedLoopConfig) -> Any:
@@ -164,6 +175,7 @@ def run_closed_loop(
     """
     from code_as_monitor.agent.drive import drive
     from code_as_monitor.agent.monitor import build_monitor
+    from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
     from code_as_monitor.vlm.skills import skill_table
@@ -173,7 +185,8 @@ def run_closed_loop(
     out.frame_hooks.extend(frame_hooks or [])
     # Views are rendered when read (and before the world moves on): the oracle tracker reads poses, not
     # pixels, so its frames cost no render.
-    world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True)
+    world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True,
+                            cameras=camera_set(cfg.cameras, cfg.width, cfg.height))
     monitor = None
     summary: dict[str, Any] = {"method": "cam", "config": asdict(cfg), "task": cfg.task, "seed": cfg.seed}
     try:

@@ -2,6 +2,7 @@
 
     cam run stack-in-order --seed 3 --p 0.3
     cam run stack-in-order --q 2 --tracker sim
+    cam run slot-pen --set disturbance=a --tracker depth --cameras shoulders
     cam run sweep-half --backend openai --model gpt-4o
     cam run stack-in-order --backend openai --base-url http://localhost:8000/v1 --model qwen2-vl --api-key-env none
 
@@ -41,6 +42,10 @@ def add_common(p: argparse.ArgumentParser) -> None:
                         "check follow it, e.g. --instruction \"stack red on top of green on top of blue\"")
     add_monitor_options(p)
     p.add_argument("--size", default="640x480", help="camera resolution WxH (default 640x480)")
+    p.add_argument("--cameras", default="task",
+                   help="camera set: task (the task's own views, default), front-top (the paper's CLIPort views), "
+                        "front (the front view alone), shoulders (two views over the robot's shoulders), rlbench "
+                        "(front, both shoulders, wrist)")
 
 
 def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> None:
@@ -142,7 +147,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
         tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
         max_replans=args.max_replans, deadline_s=args.deadline, allow_unconfined=args.allow_unconfined,
-        ablation=args.ablation,
+        ablation=args.ablation, cameras=getattr(args, "cameras", "task"),
     )
 
 

@@ -108,6 +108,42 @@ def rlbench_cameras(width: int = 320, height: int = 240) -> list[CameraSpec]:
     ]
 
 
+def shoulder_cameras(width: int = 320, height: int = 240) -> list[CameraSpec]:
+    """Two views over the robot's shoulders, at y = +-0.5 m, 0.75 m up, looking at the table centre line: the element
+    benchmark's views that no test's closed loop uses (``benchmarks/element_accuracy.py``)."""
+    return [
+        CameraSpec("shoulder_left", eye=(0.3, 0.5, 0.75), target=(0.3, 0.0, 0.0), width=width, height=height,
+                   fov_y_deg=60.0),
+        CameraSpec("shoulder_right", eye=(0.3, -0.5, 0.75), target=(0.3, 0.0, 0.0), width=width, height=height,
+                   fov_y_deg=60.0),
+    ]
+
+
+def front_camera(width: int = 320, height: int = 240) -> list[CameraSpec]:
+    """The front view alone (:func:`default_cameras`' first)."""
+    return default_cameras(width, height)[:1]
+
+
+CAMERA_SETS: dict[str, Callable[[int, int], list[CameraSpec]] | None] = {
+    "task": None,
+    "front-top": default_cameras,
+    "front": front_camera,
+    "shoulders": shoulder_cameras,
+    "rlbench": rlbench_cameras,
+}
+"""Named camera sets for a simulated episode (``cam run --cameras``): ``task`` the task's own (front and top, or
+RLBench's four for the RLBench-style tasks), else one set for every task."""
+
+
+def camera_set(name: str, width: int, height: int) -> list[CameraSpec] | None:
+    """The cameras of set ``name`` (:data:`CAMERA_SETS`) at ``width`` x ``height``; None for ``task`` (the task's own).
+    ConfigError names an unknown set."""
+    if name not in CAMERA_SETS:
+        raise ConfigError(f"unknown camera set {name!r}; choose one of: {', '.join(CAMERA_SETS)}")
+    make = CAMERA_SETS[name]
+    return None if make is None else make(width, height)
+
+
 def shifted_principal_point(camera: CameraModel, du: float, dv: float) -> CameraModel:
     """``camera`` with ``du`` / ``dv`` pixels added to its principal point ``(cx, cy)`` (everything else kept)."""
     K = camera.K.copy()
