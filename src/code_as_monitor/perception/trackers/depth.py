@@ -136,7 +136,7 @@ class DepthTracker(Tracker):
             sb.t = obs.t
         init_offsets(list(self._small.values()), self._detect(obs, views), self.config.detect_gate)
         self._ee = _ee_pose(obs)
-        self._tip_prev = _tip(obs) if obs.robot is not None else None
+        self._tip_prev = obs.robot.tip if obs.robot is not None else None
         self._t = obs.t
         # a body painted in the jaws is carried from the first frame (a pen re-painted as a re-plan began, then
         # swung 3.4 cm in one frame, was lost, and re-found 11.6 cm off: a false "pen dropped")
@@ -174,13 +174,13 @@ class DepthTracker(Tracker):
             if body.parent in moves and not self._bodies[body.parent].lost:
                 keep_on_object(c, body, self._bodies[body.parent], views)
         if self._small:
-            tip = _tip(obs) if obs.robot is not None else None
+            tip = obs.robot.tip if obs.robot is not None else None
             tips = (self._tip_prev, tip) if (tip is not None and self._tip_prev is not None) else None
             track_small(c, list(self._small.values()), self._detect(obs, views), obs.t, dT_ee if on else None, tips)
         self._maybe_reacquire(obs, views)
         self._update_held(obs, on)  # after re-acquisition: a body re-painted in the jaws is carried next frame
         self._ee = ee
-        self._tip_prev = _tip(obs) if obs.robot is not None else None
+        self._tip_prev = obs.robot.tip if obs.robot is not None else None
         self._t = obs.t
         return self._result(obs)
 
@@ -281,7 +281,7 @@ class DepthTracker(Tracker):
         return [m for _, m in sorted(cands, key=lambda x: x[0])[:k]]
 
     def _update_held(self, obs: Observation, on: bool) -> None:
-        tip = _tip(obs) if obs.robot is not None else None
+        tip = obs.robot.tip if obs.robot is not None else None
         for body in self._bodies.values():
             if body.model is None or tip is None or not on:
                 body.held = False
@@ -385,16 +385,10 @@ def _ee_pose(obs: Observation) -> np.ndarray | None:
 def _tool(obs: Observation, ee: np.ndarray, radius: float, margin: float) -> tuple:
     """The end-effector's exclusion cylinder: ``(tip, axis into the tool, radius, margin)``; the radius
     grows to hold the named end-effector points (a gripper's jaws) with 1.5 cm to spare."""
-    tip = _tip(obs)
-    axis = -ee[:3, 2]
     assert obs.robot is not None
+    tip = obs.robot.tip
+    axis = -ee[:3, 2]
     for p in obs.robot.ee_points.values():
         rel = np.asarray(p, dtype=np.float64).reshape(3) - tip
         radius = max(radius, float(np.linalg.norm(rel - (rel @ axis) * axis)) + 0.015)
     return tip, axis, radius, margin
-
-
-def _tip(obs: Observation) -> np.ndarray:
-    assert obs.robot is not None
-    p = obs.robot.ee_points.get("tip")
-    return np.asarray(p if p is not None else obs.robot.ee_pose[:3, 3], dtype=np.float64).reshape(3)

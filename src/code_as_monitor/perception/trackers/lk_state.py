@@ -111,10 +111,7 @@ def inside(view: View, border: int, uv: np.ndarray) -> np.ndarray:
 
 def tip_of(obs: Observation) -> np.ndarray | None:
     """The end-effector tip (3,) in the world frame, or None without robot state."""
-    if obs.robot is None:
-        return None
-    p = obs.robot.ee_points.get("tip")
-    return np.asarray(p if p is not None else obs.robot.ee_pose[:3, 3], dtype=np.float64).reshape(3)
+    return None if obs.robot is None else obs.robot.tip
 
 
 def slots(sl: slice, k: int) -> slice:
