@@ -120,9 +120,10 @@ def check_choices(cfg: ClosedLoopConfig) -> None:
     from code_as_monitor.sim.tasks.base import TaskConfig
 
     TaskConfig.from_name(cfg.task, **cfg.task_params)
-    cfg.monitor_config().check()
+    monitor = cfg.monitor_config()
+    monitor.check()
     specs = camera_set(cfg.cameras, cfg.width, cfg.height)
-    keep = cfg.monitor_config().cameras
+    keep = monitor.cameras
     if specs is not None and keep is not None and not set(keep) <= {c.name for c in specs}:
         raise ConfigError(f"ablation {cfg.ablation!r} keeps the view(s) {', '.join(keep)}, which camera set "
                           f"{cfg.cameras!r} does not have ({', '.join(c.name for c in specs)})")

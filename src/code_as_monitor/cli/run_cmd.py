@@ -147,7 +147,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
         tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
         max_replans=args.max_replans, deadline_s=args.deadline, allow_unconfined=args.allow_unconfined,
-        ablation=args.ablation, cameras=getattr(args, "cameras", "task"),
+        ablation=args.ablation, cameras=args.cameras,
     )
 
 

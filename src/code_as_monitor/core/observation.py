@@ -116,6 +116,11 @@ class Observation:
     def view_names(self) -> list[str]:
         return list(self.views)
 
+    @property
+    def tip(self) -> np.ndarray | None:
+        """(3,) world metres: the end effector's tip (:attr:`RobotState.tip`), or None without robot state."""
+        return None if self.robot is None else self.robot.tip
+
 
 def check_observation(obs: object, where: str = "Monitor.step") -> None:
     """Raise :class:`ObservationError` naming what is wrong unless ``obs`` is an :class:`Observation` with

@@ -136,11 +136,11 @@ class DepthTracker(Tracker):
             sb.t = obs.t
         init_offsets(list(self._small.values()), self._detect(obs, views), self.config.detect_gate)
         self._ee = _ee_pose(obs)
-        self._tip_prev = obs.robot.tip if obs.robot is not None else None
+        self._tip_prev = obs.tip
         self._t = obs.t
         # a body painted in the jaws is carried from the first frame (a pen re-painted as a re-plan began, then
         # swung 3.4 cm in one frame, was lost, and re-found 11.6 cm off: a false "pen dropped")
-        self._update_held(obs, obs.robot is not None and float(obs.robot.gripper) >= 0.5)
+        self._update_held(self._tip_prev, obs.robot is not None and float(obs.robot.gripper) >= 0.5)
 
     def step(self, obs: Observation) -> TrackResult:
         c = self.config
@@ -149,7 +149,8 @@ class DepthTracker(Tracker):
         ee = _ee_pose(obs)
         dT_ee = ee @ invert(self._ee) if (ee is not None and self._ee is not None) else None
         on = obs.robot is not None and float(obs.robot.gripper) >= 0.5
-        tool = _tool(obs, ee, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
+        tip = obs.tip  # read once per frame
+        tool = _tool(obs, ee, tip, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
         dt = obs.t - self._t if self._t is not None else 0.0
         moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
         for owner in self._ordered_bodies():
@@ -174,13 +175,12 @@ class DepthTracker(Tracker):
             if body.parent in moves and not self._bodies[body.parent].lost:
                 keep_on_object(c, body, self._bodies[body.parent], views)
         if self._small:
-            tip = obs.robot.tip if obs.robot is not None else None
             tips = (self._tip_prev, tip) if (tip is not None and self._tip_prev is not None) else None
             track_small(c, list(self._small.values()), self._detect(obs, views), obs.t, dT_ee if on else None, tips)
         self._maybe_reacquire(obs, views)
-        self._update_held(obs, on)  # after re-acquisition: a body re-painted in the jaws is carried next frame
+        self._update_held(tip, on)  # after re-acquisition: a body re-painted in the jaws is carried next frame
         self._ee = ee
-        self._tip_prev = obs.robot.tip if obs.robot is not None else None
+        self._tip_prev = tip
         self._t = obs.t
         return self._result(obs)
 
@@ -280,8 +280,9 @@ class DepthTracker(Tracker):
             cands.append((float(np.linalg.norm(apply(other.T, other.model.centre[None])[0] - here)), m))
         return [m for _, m in sorted(cands, key=lambda x: x[0])[:k]]
 
-    def _update_held(self, obs: Observation, on: bool) -> None:
-        tip = obs.robot.tip if obs.robot is not None else None
+    def _update_held(self, tip: np.ndarray | None, on: bool) -> None:
+        """Which bodies the end effector holds: gripper or suction ``on`` and a model point within ``held_distance``
+        of the ``tip`` (3,) world (None: no robot state)."""
         for body in self._bodies.values():
             if body.model is None or tip is None or not on:
                 body.held = False
@@ -382,11 +383,10 @@ def _ee_pose(obs: Observation) -> np.ndarray | None:
     return None if obs.robot is None else np.asarray(obs.robot.ee_pose, dtype=np.float64)
 
 
-def _tool(obs: Observation, ee: np.ndarray, radius: float, margin: float) -> tuple:
+def _tool(obs: Observation, ee: np.ndarray, tip: np.ndarray, radius: float, margin: float) -> tuple:
     """The end-effector's exclusion cylinder: ``(tip, axis into the tool, radius, margin)``; the radius
     grows to hold the named end-effector points (a gripper's jaws) with 1.5 cm to spare."""
     assert obs.robot is not None
-    tip = obs.robot.tip
     axis = -ee[:3, 2]
     for p in obs.robot.ee_points.values():
         rel = np.asarray(p, dtype=np.float64).reshape(3) - tip

@@ -66,7 +66,6 @@ from code_as_monitor.perception.trackers.lk_state import (
     nanmean,
     nanmedian_axis,
     slots,
-    tip_of,
     views_agree,
 )
 
@@ -119,7 +118,7 @@ class LKTracker(Tracker):
             else:
                 tracked.append(el)
         self._order = [el.id for el in elements]
-        self._tip = tip_of(obs)
+        self._tip = obs.tip
         self._elements = {el.id: el for el in elements}
         self._layout(tracked)
         for name, view in obs.views.items():
@@ -134,7 +133,7 @@ class LKTracker(Tracker):
         for name in [n for n in self._views if n not in obs.views]:
             del self._views[name]  # a view that dropped out is re-seeded when it returns
         est = np.full((len(obs.views), m * K, 3), np.nan)  # per view, per anchor slot
-        tip = tip_of(obs)
+        tip = obs.tip
         ee_delta = tip - self._tip if (tip is not None and self._tip is not None) else None
         self._tip = tip
         for k, (name, view) in enumerate(obs.views.items()):

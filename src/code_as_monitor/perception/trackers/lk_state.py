@@ -8,7 +8,7 @@ import warnings
 
 import numpy as np
 
-from code_as_monitor.core.observation import Observation, View
+from code_as_monitor.core.observation import View
 
 
 class ViewState:
@@ -107,11 +107,6 @@ def inside(view: View, border: int, uv: np.ndarray) -> np.ndarray:
         & (uv[:, 0] >= border) & (uv[:, 0] <= cam.width - 1 - border)
         & (uv[:, 1] >= border) & (uv[:, 1] <= cam.height - 1 - border)
     )
-
-
-def tip_of(obs: Observation) -> np.ndarray | None:
-    """The end-effector tip (3,) in the world frame, or None without robot state."""
-    return None if obs.robot is None else obs.robot.tip
 
 
 def slots(sl: slice, k: int) -> slice:
