@@ -19,6 +19,7 @@ from typing import Any, Protocol
 
 from code_as_monitor.baselines.vqa_standin import NAME as STANDIN_NAME
 from code_as_monitor.baselines.vqa_standin import VQAAnswer, VQAStandin
+from code_as_monitor.baselines.vqa_views import question_view
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.errors import VLMOutputError
 from code_as_monitor.core.observation import Observation
@@ -58,8 +59,9 @@ class VQA(Protocol):
         ...
 
 
-def _view_for(constraint: Constraint) -> str:
-    return VQAStandin().view_for(constraint)
+def _view_for(constraint: Constraint, obs: Observation) -> str:
+    """The view of ``obs`` the question is asked on (the stand-in's choice, for any camera set)."""
+    return question_view(VQAStandin().view_for(constraint), obs)
 
 
 class StandinVQA:
@@ -72,9 +74,9 @@ class StandinVQA:
         self.standin = VQAStandin()
 
     def ask(self, constraint: Constraint, obs: Observation) -> VQAAnswer:
-        view = self.standin.view_for(constraint)
+        view = question_view(self.standin.view_for(constraint), obs)
         ans = self.standin.answer(constraint, obs)
-        rgb = (obs.views.get(view) or next(iter(obs.views.values()))).rgb
+        rgb = obs.views[view].rgb
         msgs = vqa_messages(constraint, view, rgb)
         text = ("yes, " if ans.yes else "no, ") + ans.reason
         self.usage.record(PURPOSE, VLMResponse(text, estimate_prompt_tokens(msgs), estimate_tokens(text),
@@ -92,8 +94,8 @@ class VLMVQA:
         self.usage = usage
 
     def ask(self, constraint: Constraint, obs: Observation) -> VQAAnswer:
-        view = _view_for(constraint)
-        rgb = (obs.views.get(view) or next(iter(obs.views.values()))).rgb
+        view = _view_for(constraint, obs)
+        rgb = obs.views[view].rgb
         msgs = vqa_messages(constraint, view, rgb)
         t0 = time.monotonic()
         resp = self.backend.complete(msgs, purpose=PURPOSE)

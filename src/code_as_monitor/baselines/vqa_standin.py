@@ -53,6 +53,7 @@ from code_as_monitor.baselines.vqa_standin_drawer import DrawerRules
 from code_as_monitor.baselines.vqa_standin_gripper import Gripper, GripperRules
 from code_as_monitor.baselines.vqa_standin_rlbench import RLBenchRules
 from code_as_monitor.baselines.vqa_standin_tea import TeaRules
+from code_as_monitor.baselines.vqa_views import question_view
 from code_as_monitor.core.constraints import Constraint
 from code_as_monitor.core.observation import Observation, View
 
@@ -91,9 +92,9 @@ class VQAStandin:
         return "top" if objs & {"zone", "rope", "square"} else "front"
 
     def answer(self, constraint: Constraint, obs: Observation) -> VQAAnswer:
-        """Yes/no for ``constraint`` on the single view :meth:`view_for` picks."""
-        name = self.view_for(constraint)
-        view = obs.views.get(name) or next(iter(obs.views.values()))
+        """Yes/no for ``constraint`` on the single view :meth:`view_for` wants (or the most similar one the
+        observation has: :func:`~code_as_monitor.baselines.vqa_views.question_view`)."""
+        view = obs.views[question_view(self.view_for(constraint), obs)]
         key = constraint.id.split("_", 1)[0]
         objs = [p.obj for p in constraint.parts if p.obj != "robot"]
         tip_uv, grip = None, Gripper(None, 0.0, 0.0)

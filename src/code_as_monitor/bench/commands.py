@@ -48,6 +48,8 @@ def run_command(task: str, episode_seed: int, params: dict[str, Any], options: d
               "--max-replans", str(int(options.get("max_replans") if options.get("max_replans") is not None
                                        else DEFAULT_MAX_REPLANS)),  # the rlbench suite runs with 0
               "--deadline", f"{float(options.get('deadline_s', cfg.deadline_s)):g}"]
+    if options.get("cameras", "task") != "task":
+        words += ["--cameras", str(options["cameras"])]
     if ablation != "full":
         words += ["--ablation", ablation]
     if options.get("backend_options"):

@@ -13,7 +13,7 @@ import logging
 import os
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,9 @@ class EpisodeOptions:
             still overruns is a fault, as on a robot.
         max_replans: failed subgoals a closed-loop method may re-plan after (None: the agents' default); 0 is
             the RLBench protocol's "a flagged episode is abandoned" (``bench.restarts``).
+        cameras: the camera set every method sees (:data:`code_as_monitor.sim.cameras.CAMERA_SETS`; ``task``: each
+            task's own views). The baselines' single-image questions then go to the set's view most like the one
+            they want (:func:`code_as_monitor.baselines.vqa_views.question_view`).
     """
 
     backend: str = "kb"
@@ -66,6 +69,7 @@ class EpisodeOptions:
     horizon_s: float = DEFAULT_HORIZON_S
     deadline_s: float = BENCH_DEADLINE_S
     max_replans: int | None = None
+    cameras: str = "task"
 
     def __post_init__(self) -> None:
         check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
@@ -74,6 +78,8 @@ class EpisodeOptions:
         if self.max_replans is not None and (isinstance(self.max_replans, bool) or not isinstance(self.max_replans, int)
                                              or self.max_replans < 0):
             raise ConfigError(f"EpisodeOptions.max_replans must be None or an integer >= 0, got {self.max_replans!r}")
+        if not isinstance(self.cameras, str) or not self.cameras:
+            raise ConfigError(f"EpisodeOptions.cameras must be the name of a camera set, got {self.cameras!r}")
         if not isinstance(self.backend_options, dict):
             raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 
@@ -132,6 +138,7 @@ def _run_cam(task: str, seed: int, params: dict[str, Any], opts: EpisodeOptions,
     cfg = ClosedLoopConfig(task=task, seed=seed, task_params=params, backend=opts.backend, ablation=ablation,
                            backend_options=opts.backend_options, segmenter=opts.segmenter, tracker=opts.tracker,
                            camera_hz=opts.camera_hz, video=run_dir is not None, deadline_s=opts.deadline_s,
+                           cameras=opts.cameras,
                            **({} if opts.max_replans is None else {"max_replans": opts.max_replans}))
     s = run_closed_loop(cfg, run_dir, on_event=cfs, on_env=cfs.set_env)
     ep = s["episode"]
@@ -147,6 +154,7 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
     from code_as_monitor.baselines.vqa import make_vqa
     from code_as_monitor.bench.closed_loop import _settle_and_evaluate
     from code_as_monitor.planning.generator import ConstraintGenerator
+    from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
     from code_as_monitor.viz.video import FrameComposer, VideoWriter
@@ -163,8 +171,9 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
 
     try:
         # Views are rendered when read: DoReMi's and Inner Monologue's stand-in reads one view per question.
-        with make_env(task, seed=seed, world_config=WorldConfig(camera_hz=opts.camera_hz, defer_render=True),
-                      **params) as env:
+        wc = WorldConfig(camera_hz=opts.camera_hz, defer_render=True)
+        wc = replace(wc, cameras=camera_set(opts.cameras, wc.width, wc.height))
+        with make_env(task, seed=seed, world_config=wc, **params) as env:
             cfs.set_env(env)
             limit = env.task.config.time_limit
             frames = 0

@@ -25,6 +25,7 @@ from code_as_monitor.bench.metrics import cell_summary, detection
 from code_as_monitor.bench.paper import PAPER
 from code_as_monitor.bench.protocol import ABLATION_METHODS, ALL_METHODS, CONDITIONS, METHODS
 from code_as_monitor.bench.record_check import check_episode_record
+from code_as_monitor.bench.report_notes import perception_note
 from code_as_monitor.bench.results_file import versions_of
 from code_as_monitor.bench.runner import episode_records, read_results
 from code_as_monitor.core.errors import RunError
@@ -162,10 +163,7 @@ def markdown(summary: dict[str, Any], with_paper: bool = True) -> str:
     checking = [m for m in ms if m != "open-loop"]  # the methods that time themselves and raise alarms
     heads = ["Condition", "n/cell"] + [f"SR {HEADERS[m]}" for m in ms] + [f"Time {HEADERS[m]}" for m in checking]
     opts = summary.get("options") or {}
-    tracker = opts.get("tracker", "sim")
-    perception = (f"CaM perception: elements painted from `{opts.get('segmenter', 'sim')}` masks, tracked by "
-                  f"`{tracker}`" + (" (the oracle: ground-truth poses)." if tracker == "sim" else
-                                    " (no simulator poses)."))
+    perception = perception_note(opts)
     out = [perception, "", interval_note(summary), "", "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for c in cs:
         row = [c.label, str(min((cells[(c.id, m)]["n"] for m in ms if (c.id, m) in cells), default=0))]
@@ -335,7 +333,8 @@ def write_report(results: str | Path, out_dir: str | Path) -> tuple[Path, Path]:
     elif title == "RLBench-style benchmark":
         from code_as_monitor.bench.report_rlbench import rlbench_markdown
 
-        body_md = rlbench_markdown(s["records"]) + "\n" + versions_note(s) + "\n\n" + STANDIN_NOTE + "\n"
+        body_md = (perception_note(s.get("options") or {}) + "\n\n" + rlbench_markdown(s["records"]) + "\n"
+                   + versions_note(s)) + "\n\n" + STANDIN_NOTE + "\n"
     else:
         body_md = markdown(s)
     md = f"# {title}\n\nResults: `{results}`\n\n" + body_md

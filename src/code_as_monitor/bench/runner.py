@@ -88,8 +88,11 @@ def record_key(r: dict[str, Any]) -> tuple[str, str, int, int]:
 
 
 def _check_options(lines: list[dict[str, Any]], opts: dict[str, Any]) -> None:
+    """ConfigError unless every session of the file ran with ``opts``; an option added since a file was made
+    counts as its default there (a file from before ``cameras`` ran on each task's own views)."""
+    defaults = EpisodeOptions().to_dict()
     for r in lines:
-        if r.get("kind") == "bench_start" and r.get("options") != opts:
+        if r.get("kind") == "bench_start" and {**defaults, **(r.get("options") or {})} != opts:
             raise ConfigError(
                 f"the results file was made with other method options ({r.get('options')}); use another "
                 f"--results file or the same options (now {opts})")

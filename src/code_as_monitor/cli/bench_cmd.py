@@ -67,6 +67,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle, default), lk, depth; recorded in "
                    "every result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
+    p.add_argument("--cameras", default="task",
+                   help="the camera set every method sees: task (each task's own views, default), front-top (the "
+                        "paper's CLIPort views), front, shoulders, rlbench; recorded in every result. The baselines "
+                        "ask each question on the set's view most like the one they want (steepest for top-down "
+                        "questions, most level for the others)")
     p.add_argument("--no-counterfactual", action="store_true", help="skip counterfactual rollouts")
     p.add_argument("--list", action="store_true", help="list conditions and methods")
     p.set_defaults(func=run)
@@ -96,14 +101,14 @@ def run(args: argparse.Namespace) -> int:
         backend_options.update(server_options(args))
     options = {"backend": args.backend, "backend_options": backend_options, "doremi_k_s": args.doremi_k,
                "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual,
-               **suite.get("options", {})}
+               "cameras": args.cameras, **suite.get("options", {})}
     kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
     if args.methods:
         kw["methods"] = args.methods
     if args.conditions:
         kw["conditions"] = args.conditions
     spec = BenchSpec(seeds=seeds, episodes=episodes, options=options, **kw)
-    _check_options(options)
+    _check_options(options, spec)
     ex_kw: dict = {"workers": args.workers}
     if args.executor == "ray":
         ex_kw["address"] = args.ray_address
@@ -147,17 +152,26 @@ def _run_restarts(spec: Any, results: Path, executor: Any, runs_dir: Any, args: 
     return 0
 
 
-def _check_options(options: dict[str, Any]) -> None:
-    """The method options as the episodes will see them: unknown backends/trackers/segmenters are one
-    line now, not an error record per episode later."""
+def _check_options(options: dict[str, Any], spec: Any) -> None:
+    """The method options as the episodes will see them: unknown backends/trackers/segmenters, or an ablation
+    keeping a view the camera set lacks, are one line now, not an error record per episode later."""
+    from code_as_monitor.agent.ablations import ablation_fields
     from code_as_monitor.bench.episode import EpisodeOptions
+    from code_as_monitor.bench.protocol import ablation_of, is_cam
     from code_as_monitor.perception import SegmenterConfig, TrackerConfig
+    from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.vlm import VLMBackendConfig
 
     EpisodeOptions(**options)
     VLMBackendConfig.from_name(options["backend"], **options["backend_options"])
     TrackerConfig.get_class(options["tracker"])
     SegmenterConfig.get_class(options["segmenter"])
+    views = camera_set(options["cameras"], 320, 240)
+    for m in spec.methods:
+        keep = ablation_fields(ablation_of(m)).get("cameras") if is_cam(m) and views is not None else None
+        if keep and not set(keep) <= {c.name for c in views}:
+            raise ConfigError(f"method {m!r} keeps the view(s) {', '.join(keep)}, which camera set "
+                              f"{options['cameras']!r} does not have ({', '.join(c.name for c in views)})")
 
 
 class _Progress:
