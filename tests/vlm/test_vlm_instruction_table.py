@@ -213,3 +213,16 @@ def test_random_word_salad_is_planned_or_refused_never_crashes():
         except InstructionError:
             continue
         parse_generator_output(answer, {"objects": objects})
+
+
+@pytest.mark.parametrize("instruction", [
+    "push half of the blocks in the pile into the zone",
+    "sweep half of the pile into the yellow zone",
+    "push half the blocks from the pile into the zone",
+    "sweep a quarter of the pile into the zone",
+])
+def test_the_sweep_scenes_pile_is_its_blocks(instruction):
+    """The sweep scene's blocks lie in a pile: "the pile" names them (where they lie, or what to push), as "the
+    blocks on the table" does; before, each of these was refused for the unknown pile."""
+    band = (6, 14, 8) if "quarter" in instruction else (16, 24, 18)
+    assert judge(instruction, SCENES["sweep"], sweep(*band)) == ("right", "")

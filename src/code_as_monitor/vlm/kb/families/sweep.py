@@ -128,7 +128,9 @@ def understand(ins: Instruction, objects: list[str]) -> SweepGoal | None:
     region = next((o for o in names if o in REGION_NAMES), "")
     blocks = tuple(sorted(o for o in names if re.fullmatch(r"block_\d+", o)))
     zones = r.phrases(lambda p: p.head == "zone")
-    movers = r.phrases(lambda p: p.head == "block" or (p.head == "" and p.quantity is not None and not p.colour))
+    # "half of the pile": the scene's pile is its blocks (the lexicon reads "pile" as a tower of blocks)
+    movers = r.phrases(lambda p: p.head == "block" or (p.head in ("", "tower") and p.quantity is not None
+                                                        and not p.colour))
     if not region or not blocks:
         r.refuse("the scene has no zone and blocks to sweep" if not region else "the scene has no blocks to sweep")
     if len(movers) != 1:
@@ -153,6 +155,9 @@ def understand(ins: Instruction, objects: list[str]) -> SweepGoal | None:
     r.use(movers[0].index, *(z.index for z in zones))
     for k in r.links(("on", "from", "at"), lambda p: p.head == "table"):
         r.use_link(k)  # "the blocks on the table"
+        r.use(k.b)
+    for k in r.links(("in", "into", "on", "from", "of", "at"), lambda p: p.head == "tower" and p.quantity is None):
+        r.use_link(k)  # "the blocks in the pile", "half the blocks from the pile": where they lie, not a goal
         r.use(k.b)
     try:
         lo, hi, target = band(len(blocks), mover.quantity, mover.definite or mover.pronoun != "")
