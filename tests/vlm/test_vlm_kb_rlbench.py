@@ -47,6 +47,8 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("rotate the left faucet", "turn-tap", "left_handle"),
     ("drag the cube onto the target with the stick", "drag-stick", None),
     ("sweep the dust into the dustpan with the broom", "sweep-to-dustpan", None),
+    ("sweep the dirt into the pan", "sweep-to-dustpan", None),
+    ("install the light bulb in the lamp", "screw-bulb", None),
 ])
 def test_paraphrases_read_as_their_task(text: str, task: str, goal: str | None) -> None:
     fam, g = understand(text, infer_objects(INSTRUCTIONS[task]))

@@ -62,7 +62,7 @@ NOUNS: dict[str, str] = {
     "tap": "tap", "faucet": "tap", "lever": "handle",
     "stick": "stick", "rod": "stick", "pole": "stick",
     "dirt": "dirt", "dust": "dirt", "debris": "dirt", "crumb": "dirt", "particle": "dirt",
-    "dustpan": "dustpan", "broom": "broom", "brush": "broom",
+    "dustpan": "dustpan", "pan": "dustpan", "broom": "broom", "brush": "broom",
     # the scene
     "table": "table", "tabletop": "table", "desk": "table",
 }
@@ -101,7 +101,7 @@ VERBS: dict[str, str] = {
     "use": "use", "drag": "drag", "arrange": "arrange", "lay out": "arrange",
     "open": "open", "pull": "pull", "draw": "pull", "yank": "pull",
     "pour": "pour", "serve": "pour", "tip": "pour", "decant": "pour", "empty": "pour",
-    "screw": "screw", "turn": "turn", "rotate": "turn", "twist": "turn",
+    "screw": "screw", "install": "screw", "turn": "turn", "rotate": "turn", "twist": "turn",
     "shelve": "shelve", "stow": "stow", "store": "stow", "return": "stow", "file": "stow", "tidy": "stow",
 }
 """Verb lemma -> canonical action."""
