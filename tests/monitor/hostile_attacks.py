@@ -254,4 +254,30 @@ INPUTS_AND_STATE: list[tuple[str, str, str, str]] = [
 ]
 """Writes into the inputs, planted state, and module-level code run at load."""
 
-ALL: list[tuple[str, str, str, str]] = REFLECTION + NUMPY_MEMORY + DENIAL + HOST_OUTPUT + INPUTS_AND_STATE
+WRITES_AND_FILES: list[tuple[str, str, str, str]] = [
+    ("flags_writeable", _a("f = E[0].flags\nf.writeable = True\nE[0][0, 0] = 99.0\nreturn True, 'x'"), "rejected",
+     "'.flags'"),
+    ("copyto_input", _a("np.copyto(E[0], 7.0)\nreturn True, 'x'"), "rejected", "np.copyto"),
+    ("put_into_input", _a("np.put(E[0], [0], [5.0])\nreturn True, 'x'"), "rejected", "np.put"),
+    ("putmask_input", _a("np.putmask(E[0], E[0] > -1, 3.0)\nreturn True, 'x'"), "rejected", "np.putmask"),
+    ("fill_diagonal_input", _a("np.fill_diagonal(E[1], 9.0)\nreturn True, 'x'"), "rejected", "np.fill_diagonal"),
+    ("resize_input", _a("E[1].resize((2, 2), refcheck=False)\nreturn True, 'x'"), "rejected", "'.resize'"),
+    ("pickle_input", _a("s = E[0].dumps()\nreturn True, str(len(s))"), "rejected", "'.dumps'"),
+    ("masked_dump", _a(f"np.ma.dump(np.ma.array([1]), '{CANARY}')\nreturn True, 'x'"), "rejected", "np.ma"),
+    ("savez_file", _a(f"np.savez('{CANARY}', a=E[0])\nreturn True, 'x'"), "rejected", "np.savez"),
+    ("record_fromfile", _a("a = np.rec.fromfile('/etc/passwd', formats='u1')\nreturn True, 'x'"), "rejected",
+     "np.rec"),
+    ("genfromtxt_read", _a("a = np.genfromtxt('/etc/passwd')\nreturn True, 'x'"), "rejected", "np.genfromtxt"),
+    ("fromregex_read", _a("a = np.fromregex('/etc/passwd', 'x', float)\nreturn True, 'x'"), "rejected",
+     "np.fromregex"),
+    ("datasource_open", _a("d = np.DataSource()\nreturn True, 'x'"), "rejected", "np.DataSource"),
+    ("error_callback", _a("np.seterrcall(len)\nreturn True, 'x'"), "rejected", "np.seterrcall"),
+    ("show_config_stdout", _a("np.show_config()\nreturn True, 'x'"), "rejected", "np.show_config"),
+    ("generator_throw", _a("g = (x for x in [1])\ng.throw(ValueError)\nreturn True, 'x'"), "rejected", "'.throw'"),
+    ("print_to_stdout", _a("print('HOSTILE-STDOUT')\nreturn True, 'printed'"), "clean", "printed"),
+]
+"""In-place writes through numpy functions and methods, files through numpy's readers and writers, global numpy
+callbacks, and the worker's own stdout (the session of 2026-11-29, thirteenth: written before reading the lists)."""
+
+ALL: list[tuple[str, str, str, str]] = (REFLECTION + NUMPY_MEMORY + DENIAL + HOST_OUTPUT + INPUTS_AND_STATE
+                                        + WRITES_AND_FILES)
