@@ -12,7 +12,7 @@ from typing import Any
 
 from code_as_monitor.bench.paper import PAPER_ABLATION, PAPER_MODES
 from code_as_monitor.bench.protocol import CONDITIONS, SUITE_DEFAULTS
-from code_as_monitor.bench.report_notes import cameras_note, tracker_phrase
+from code_as_monitor.bench.report_notes import cameras_note, planner_phrase, tracker_phrase
 
 TASKS = ("stow-book", "slot-pen", "pour-tea")
 ROW_NAMES = {
@@ -69,9 +69,7 @@ def ablation_markdown(summary: dict[str, Any]) -> str:
     recs, opts = summary["records"], summary.get("options") or {}
     out = [f"Perception: elements painted from `{opts.get('segmenter', 'sim')}` masks (CS off: ORB keypoints in the "
            f"`{opts.get('segmenter', 'sim')}` instance masks), tracked by {tracker_phrase(opts.get('tracker', 'sim'))}"
-           + f"; planner and coder: `{opts.get('backend', 'kb')}`"
-           + (" (a rule-based stand-in for a VLM, not a VLM)." if opts.get("backend", "kb") == "kb" else ".")
-           + cameras_note(opts), "",
+           + f"; planner and coder: {planner_phrase(opts.get('backend', 'kb'))}." + cameras_note(opts), "",
            "Success % (successes/runs) per disturbance setting; Avg: the mean of the four rates (as the paper's); "
            "time: mean simulated seconds per episode.", ""]
     for task in TASKS:

@@ -14,6 +14,11 @@ def tracker_phrase(tracker: str) -> str:
     return f"`{tracker}`" + (" (the oracle: ground-truth poses)" if tracker == "sim" else " (no simulator poses)")
 
 
+def planner_phrase(backend: str) -> str:
+    """```kb` (a rule-based stand-in for a VLM, not a VLM)`` or ```openai```."""
+    return f"`{backend}`" + (" (a rule-based stand-in for a VLM, not a VLM)" if backend == "kb" else "")
+
+
 def cameras_note(opts: dict[str, Any]) -> str:
     """`` Cameras: ...`` for a sweep on a named camera set; "" for each task's own views (the default)."""
     cams = opts.get("cameras", "task")
@@ -23,10 +28,9 @@ def cameras_note(opts: dict[str, Any]) -> str:
 
 def perception_note(opts: dict[str, Any]) -> str:
     """One line: CaM's masks, tracker and planner, and the cameras, from a results file's method options."""
-    backend = opts.get("backend", "kb")
     return (f"CaM perception: elements painted from `{opts.get('segmenter', 'sim')}` masks, tracked by "
-            f"{tracker_phrase(opts.get('tracker', 'sim'))}; planner and coder: `{backend}`"
-            + (" (a rule-based stand-in for a VLM, not a VLM)." if backend == "kb" else ".") + cameras_note(opts))
+            f"{tracker_phrase(opts.get('tracker', 'sim'))}; planner and coder: "
+            f"{planner_phrase(opts.get('backend', 'kb'))}." + cameras_note(opts))
 
 
-__all__ = ["cameras_note", "perception_note", "tracker_phrase"]
+__all__ = ["cameras_note", "perception_note", "planner_phrase", "tracker_phrase"]
