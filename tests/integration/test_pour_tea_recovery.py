@@ -44,12 +44,6 @@ def test_pour_tea_recovers_when_the_pour_is_undone():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "the simulated tea jams in the spout: CaM halts on the tilt, sets the pot down, grasps it again and pours over "
-    "the cup (the spout's end 1.0 cm from its centre, 62 degrees), but 17 of 30 particles stay in the trough through "
-    "the 2.5 s drain and 7 spill as the level motion swings the spout away (13 in the cup), counted per action "
-    "with PourTea.tea_labels (RESULTS, 2026-11-28); the same jam failed pour-tea (a) 173655308 once. A matter of "
-    "the policy's drain and the particles, not of the monitor"))
 def test_pour_tea_sets_the_pot_down_when_it_tips_sideways():
     s = _closed_loop("b")
     skills = [(r["skill"], r["outcome"]) for r in s["episode"]["subgoals"]]

@@ -28,7 +28,7 @@ from code_as_monitor.agent.check_modes import kept_constraints
 from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand
-from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd, runs_to_end
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
@@ -283,7 +283,9 @@ class CodeChecker(SubgoalCompletion):
             ctx.alarm(self._subgoal, v.constraint_id, v.phase.value, v.reason, v.t)
             self._frame(obs, tr, verdicts, f"VIOLATION {v.constraint_id}: {v.reason}")
             return end("violated", f"{v.constraint_id}: {v.reason}", halt=True)
-        if upon_ok and (policy_done or (self.cfg.halt_on_upon and self._upon_streak >= self.cfg.upon_dwell_frames)):
+        early = self.cfg.halt_on_upon and self._upon_streak >= self.cfg.upon_dwell_frames and not runs_to_end(
+            self._subgoal, self.cfg.run_to_end)
+        if upon_ok and (policy_done or early):
             confirmed = self._confirm(obs, tr, upon_v, ctx) if self.cfg.refresh_on_done else upon_v
             if confirmed is not None:
                 if not policy_done:

@@ -17,6 +17,7 @@ from code_as_monitor.agent.rest import RestWait
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, RATE_HZ_RANGE, check_count, check_fields, check_range
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.painter.sources import check_element_source
+from code_as_monitor.vlm.skills import RUN_TO_END
 
 
 @dataclass
@@ -32,7 +33,10 @@ class AgentConfig:
         time_limit_s: no subgoal is planned at or after this time (observation seconds); None for none.
         history_len: frames of element history fed to the program as H.
         code_retries: regenerations allowed when validation or path coverage fails.
-        halt_on_upon: halt a still-moving policy as soon as every upon check holds.
+        halt_on_upon: halt a still-moving policy as soon as every upon check holds, unless its skill is one of
+            ``run_to_end`` (then its upon checks are judged when it finishes).
+        run_to_end: skills whose motion is their goal, never halted early on their upon checks (default: the
+            pour, :data:`code_as_monitor.vlm.skills.RUN_TO_END`); a robot names its own.
         upon_dwell_frames: consecutive frames the upon checks must hold before completing.
         refresh_on_done: when the policy finishes, re-measure the elements before judging the upon
             checks, so tracker drift accumulated during the motion does not decide the outcome: an element
@@ -68,6 +72,7 @@ class AgentConfig:
     history_len: int = 64
     code_retries: int = 2
     halt_on_upon: bool = True
+    run_to_end: tuple[str, ...] = RUN_TO_END
     upon_dwell_frames: int = 2
     refresh_on_done: bool = True
     refresh_motion: float = 0.03
@@ -98,6 +103,10 @@ class AgentConfig:
         check_range(name, "rest_depth_tol", self.rest_depth_tol, 0.0, None, lo_open=True)
         check_range(name, "rest_noise_k", self.rest_noise_k, 0.0, None)
         check_mode(self.checks, f"{name}.checks")
+        if isinstance(self.run_to_end, str) or not isinstance(self.run_to_end, (tuple, list)) or not all(
+                isinstance(x, str) and x for x in self.run_to_end):
+            raise ConfigError(f"{name}.run_to_end must be a list of skill names, got {self.run_to_end!r}")
+        self.run_to_end = tuple(self.run_to_end)
 
 
     def rest_wait(self) -> RestWait:

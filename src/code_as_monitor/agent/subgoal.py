@@ -8,6 +8,7 @@ both import this module, and it imports neither, so they form no import circle.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -84,4 +85,11 @@ class MonitorContext:
         return a
 
 
-__all__ = ["MonitorContext", "SubgoalChecker", "SubgoalEnd"]
+def runs_to_end(subgoal: Subgoal, skills: Collection[str]) -> bool:
+    """Whether ``subgoal``'s skill is one of ``skills``, which run to their end: a checker does not end such a subgoal
+    before its policy finishes because its upon checks hold (:attr:`AgentConfig.run_to_end
+    <code_as_monitor.agent.config.AgentConfig.run_to_end>`); a violation still halts it."""
+    return subgoal.action is not None and subgoal.action.skill in skills
+
+
+__all__ = ["MonitorContext", "SubgoalChecker", "SubgoalEnd", "runs_to_end"]

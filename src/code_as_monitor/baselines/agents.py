@@ -10,8 +10,9 @@
 - ``doremi`` (:class:`CheckingAgent` with ``period_s=k``): during execution, every ``k`` seconds of
   environment time, one observation is rendered and the VQA is asked about every ``during`` constraint
   (a "no" halts the policy and re-plans) and every ``upon`` constraint (all "yes" completes the
-  subgoal early, which is how a never-ending skill gets stopped); when the policy ends, the ``upon``
-  constraints are asked once more.
+  subgoal early, which is how a never-ending skill gets stopped; not for a skill that runs to its end, the pour:
+  :data:`~code_as_monitor.vlm.skills.RUN_TO_END`, as for CaM); when the policy ends, the ``upon`` constraints are
+  asked once more.
 
 Neither baseline halts the policy when the time limit is reached: running out of time is not a
 decision to stop (the rope task counts a halt within the limit as the robot's decision).
@@ -25,18 +26,19 @@ constraint is), so the benchmark scores all methods' detections the same way.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
 from code_as_monitor.agent.drive import drive
 from code_as_monitor.agent.monitor import Monitor
 from code_as_monitor.agent.records import DEFAULT_MAX_REPLANS, DEFAULT_MAX_SUBGOALS, EpisodeLog, SubgoalRecord
-from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
+from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd, runs_to_end
 from code_as_monitor.core.constraints import Action, Constraint, Phase, Subgoal
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.core.policy import Policy
 from code_as_monitor.core.registry import Choice, check_positive
+from code_as_monitor.vlm.skills import RUN_TO_END
 
 log = logging.getLogger(__name__)
 
@@ -132,11 +134,13 @@ class VQAChecker:
         ask_all_at_end: at the end of a subgoal, ask every constraint (Inner Monologue) instead of
             only the ``upon`` ones (DoReMi, which has watched the ``during`` ones all along).
         on_frame: called with every observation it looks at and a banner (for sample videos).
+        run_to_end: skills never ended early on a "yes" to every upon question (they are asked at the end only).
     """
 
     def __init__(self, vqa: Any, period_s: float | None, ask_all_at_end: bool,
-                 on_frame: FrameFn | None = None) -> None:
+                 on_frame: FrameFn | None = None, run_to_end: Collection[str] = RUN_TO_END) -> None:
         self.vqa = vqa
+        self.run_to_end = tuple(run_to_end)
         self.period_s = period_s
         self.ask_all_at_end = ask_all_at_end
         self.on_frame = on_frame
@@ -178,7 +182,7 @@ class VQAChecker:
                 c, ans = bad[0]
                 ctx.alarm(sg, c.id, c.phase.value, ans.reason, obs.t)
                 return SubgoalEnd("violated", f"{c.id}: {ans.reason}", halt=True)
-            if self._upon and not self._ask(self._upon, obs, ctx):
+            if self._upon and not runs_to_end(sg, self.run_to_end) and not self._ask(self._upon, obs, ctx):
                 ctx.emit("early_halt", t=obs.t, reason="all upon constraints answered yes")
                 return SubgoalEnd("success", "all upon constraints answered yes", halt=True)
             return None

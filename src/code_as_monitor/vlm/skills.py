@@ -38,6 +38,15 @@ DEFAULT_SKILLS: dict[str, str] = {
 }
 """Skill name -> its argument keys (values: object names unless said) and what it does, in one short line."""
 
+RUN_TO_END: tuple[str, ...] = ("pour",)
+"""Skills of :data:`DEFAULT_SKILLS` that run to their end even when their subgoal's ``upon`` checks already hold
+(every other skill a monitor may halt as soon as they do, which is how the skills that never stop themselves end).
+The pour: its tilt and its aim over the cup are its goal, and a pour halted when the pot was first "tipped past the
+pour angle" left the tea jammed in the spout trough (pour-tea seed 11, undisturbed: halted at a 58.6-degree tilt of
+the skill's 70, 9 of 30 particles in the cup, where the open loop pours 30; pour-tea (b) seed 0: 13 of 30); run to
+its end, both pour 30 of 30. A real robot's caller names its own (:attr:`AgentConfig.run_to_end
+<code_as_monitor.agent.config.AgentConfig.run_to_end>`)."""
+
 
 def skills_markdown(skills: dict[str, str]) -> str:
     """The skills as a Markdown bullet list for the prompt."""
