@@ -60,8 +60,9 @@ class VQA(Protocol):
 
 
 def _view_for(constraint: Constraint, obs: Observation) -> str:
-    """The view of ``obs`` the question is asked on (the stand-in's choice, for any camera set)."""
-    return question_view(VQAStandin().view_for(constraint), obs)
+    """The view of ``obs`` the question is asked on (the stand-in's choice, for any camera set), by the stand-in and the
+    real VLM alike."""
+    return question_view(VQAStandin.view_for(constraint), obs)
 
 
 class StandinVQA:
@@ -74,7 +75,7 @@ class StandinVQA:
         self.standin = VQAStandin()
 
     def ask(self, constraint: Constraint, obs: Observation) -> VQAAnswer:
-        view = question_view(self.standin.view_for(constraint), obs)
+        view = _view_for(constraint, obs)
         ans = self.standin.answer(constraint, obs)
         rgb = obs.views[view].rgb
         msgs = vqa_messages(constraint, view, rgb)

@@ -84,7 +84,8 @@ class VQAStandin:
     def __init__(self) -> None:
         self._tip_z = 0.0
 
-    def view_for(self, constraint: Constraint) -> str:
+    @staticmethod
+    def view_for(constraint: Constraint) -> str:
         """The one view a question is asked on: top-down for counting and rope, front for stacking and for
         the gripper tasks (the top view sees the held pen or book only past the arm and hand above it, and
         not the drawer's handle under the hand: the front camera sees the bar over the cabinet)."""

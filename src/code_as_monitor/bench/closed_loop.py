@@ -116,17 +116,13 @@ def check_choices(cfg: ClosedLoopConfig) -> None:
     """Raise UnknownChoiceError/ConfigError naming a bad task, backend, segmenter or tracker (and its
     options) before anything is created or run."""
     import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
-    from code_as_monitor.sim.cameras import camera_set
+    from code_as_monitor.sim.cameras import check_views_kept
     from code_as_monitor.sim.tasks.base import TaskConfig
 
     TaskConfig.from_name(cfg.task, **cfg.task_params)
     monitor = cfg.monitor_config()
     monitor.check()
-    specs = camera_set(cfg.cameras, cfg.width, cfg.height)
-    keep = monitor.cameras
-    if specs is not None and keep is not None and not set(keep) <= {c.name for c in specs}:
-        raise ConfigError(f"ablation {cfg.ablation!r} keeps the view(s) {', '.join(keep)}, which camera set "
-                          f"{cfg.cameras!r} does not have ({', '.join(c.name for c in specs)})")
+    check_views_kept(cfg.cameras, monitor.cameras, f"ablation {cfg.ablation!r}")
 
 
 def make_checked_backend(cfg: ClosedLoopConfig) -> Any:

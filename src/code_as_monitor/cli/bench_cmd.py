@@ -159,19 +159,17 @@ def _check_options(options: dict[str, Any], spec: Any) -> None:
     from code_as_monitor.bench.episode import EpisodeOptions
     from code_as_monitor.bench.protocol import ablation_of, is_cam
     from code_as_monitor.perception import SegmenterConfig, TrackerConfig
-    from code_as_monitor.sim.cameras import camera_set
+    from code_as_monitor.sim.cameras import check_views_kept
     from code_as_monitor.vlm import VLMBackendConfig
 
     EpisodeOptions(**options)
     VLMBackendConfig.from_name(options["backend"], **options["backend_options"])
     TrackerConfig.get_class(options["tracker"])
     SegmenterConfig.get_class(options["segmenter"])
-    views = camera_set(options["cameras"], 320, 240)
+    check_views_kept(options["cameras"], None, "")  # an unknown set, also when no method keeps a view
     for m in spec.methods:
-        keep = ablation_fields(ablation_of(m)).get("cameras") if is_cam(m) and views is not None else None
-        if keep and not set(keep) <= {c.name for c in views}:
-            raise ConfigError(f"method {m!r} keeps the view(s) {', '.join(keep)}, which camera set "
-                              f"{options['cameras']!r} does not have ({', '.join(c.name for c in views)})")
+        if is_cam(m):
+            check_views_kept(options["cameras"], ablation_fields(ablation_of(m)).get("cameras"), f"method {m!r}")
 
 
 class _Progress:

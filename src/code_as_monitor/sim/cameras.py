@@ -144,6 +144,19 @@ def camera_set(name: str, width: int, height: int) -> list[CameraSpec] | None:
     return None if make is None else make(width, height)
 
 
+def check_views_kept(set_name: str, keep: list[str] | None, who: str) -> None:
+    """ConfigError when ``who`` (an ablation, a benchmark method) keeps views ``keep`` that camera set ``set_name``
+    (:data:`CAMERA_SETS`) does not have; nothing to check for ``task`` (each task has the views the ablations keep)
+    or when nothing is kept. An unknown set is a ConfigError too."""
+    specs = camera_set(set_name, 320, 240)  # names only: the size does not matter
+    if specs is None or not keep:
+        return
+    names = [c.name for c in specs]
+    if not set(keep) <= set(names):
+        raise ConfigError(f"{who} keeps the view(s) {', '.join(keep)}, which camera set {set_name!r} does not have "
+                          f"({', '.join(names)})")
+
+
 def shifted_principal_point(camera: CameraModel, du: float, dv: float) -> CameraModel:
     """``camera`` with ``du`` / ``dv`` pixels added to its principal point ``(cx, cy)`` (everything else kept)."""
     K = camera.K.copy()
