@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -256,56 +256,13 @@ class Painter:
     def _fit(self, eid: int, spec: ElementSpec, views: list[tuple], support: SupportPlane | None,
              robots: list[np.ndarray | None] | None = None) -> Element | None:
         """One element from its per-view (view, LiftedView, SegmentResult) and the robot's mask per view (or None)."""
-        from code_as_monitor.geometry import build_element_from_clouds, cap_cloud
-        from code_as_monitor.geometry.carve import CarveView
-        from code_as_monitor.geometry.part_cloud import fuse_part
-
         if self.element_source == ORB_KEYPOINTS:
             from code_as_monitor.painter.keypoint_elements import keypoint_element
 
             return keypoint_element(eid, spec, views, self.min_pixels)
-        counts = [(int(r.part_mask.sum()), int(r.instance_mask.sum())) for _, _, r in views]
-        # A part seen well enough in some view is built from part masks only: falling back to the whole
-        # object in a view that sees the part too small would pull the element off the part. A small part that
-        # no view sees with min_pixels (a rope's bead: 4-11 pixels a view at 320x240) is still its own when its
-        # views together do, from the views with at least a quarter of that each: the whole rope standing in for
-        # one bead put the bead 5-7 cm off, at the rope's centre.
-        least = self.min_pixels
-        if spec.part and not any(pc >= least for pc, _ in counts):
-            least = max(1, self.min_pixels // 4)
-            if sum(pc for pc, _ in counts if pc >= least) < self.min_pixels:
-                least = self.min_pixels
-        part_seen = bool(spec.part) and any(pc >= least for pc, _ in counts)
-        clouds, carve_views = [], []
-        robots = robots if robots is not None else [None] * len(views)
-        for (view, lifted, res), (pc, ic), robot in zip(views, counts, robots):
-            own = part_seen or pc >= least
-            mask = res.part_mask if own else res.instance_mask
-            if (pc < least) if own else (ic < self.min_pixels):
-                mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
-            clouds.append(lifted.points(mask))
-            siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
-            carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings, robot))
-        if not any(len(c) for c in clouds):
-            return None
-        try:
-            el = build_element_from_clouds(eid, spec, clouds, carve_views, support)
-        except CamError as exc:
-            log.info("element %d (%s) could not be built: %s", eid, spec.name, exc)
-            return None
-        if spec.part and not part_seen and el.support is not None:
-            el.support = replace(el.support, part_seen=False)
-        if not spec.part or not part_seen:
-            el.object_cloud = el.cloud
-        else:
-            whole = [lifted.points(r.instance_mask) for (_, lifted, r), (_, ic) in zip(views, counts)
-                     if ic >= self.min_pixels]
-            try:
-                Q, vs, _ = fuse_part(whole, [], name=f"object of {spec.name!r}")
-                el.object_cloud = cap_cloud(Q, voxel=vs)
-            except CamError:
-                el.object_cloud = None
-        return el
+        from code_as_monitor.painter.mask_elements import mask_element
+
+        return mask_element(eid, spec, views, support, robots, self.min_pixels)
 
     def paint(self, obs: Observation, subgoal: Subgoal,
               known: Mapping[Key, KnownElement] | None = None) -> PaintResult:
