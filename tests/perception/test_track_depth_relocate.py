@@ -108,7 +108,9 @@ def test_a_book_stowed_in_its_shelf_is_not_read_as_dropped_with_depth():
     """Stow-book (b) 1822091572 with the depth tracker (kb planner, sim masks): the held book, carried fast out of view
     and lowered into the shelf, was lost; its weak re-paint from the top the slot leaves in view became its model,
     4.5 cm off, its spine stayed stale, and the stowed book read "dropped ... not in the slot of bookshelf": a re-grasp
-    out of the shelf, then stuck. Its known model, relocated, now keeps it where it is."""
+    out of the shelf, then stuck. Its known model, relocated, now keeps it where it is. The same episode guards the
+    painter's few-pixel rule (:mod:`code_as_monitor.painter.mask_elements`): the book's cover shown by 4-7 pixels as it
+    sinks into the shelf, with sides unbounded, painted from those pixels alone (44 mm off) broke it again."""
     pytest.importorskip("pybullet")
     from code_as_monitor.bench.closed_loop import ClosedLoopConfig, run_closed_loop
 
