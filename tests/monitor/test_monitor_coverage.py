@@ -9,7 +9,7 @@ from hostile_programs import GOOD
 from code_as_monitor.core.errors import ProgramError
 from code_as_monitor.monitor.coverage import CoverageError, check_path_coverage
 from code_as_monitor.monitor.instrument import instrument
-from code_as_monitor.monitor.perturb import DEPARTURES_PER_ELEMENT, TURNS_PER_ELEMENT, make_probes
+from code_as_monitor.monitor.perturb import DEPARTURES_PER_ELEMENT, TURNS_PER_ELEMENT, YAW_TURNS, make_probes
 from code_as_monitor.monitor.sandbox import Sandbox
 from code_as_monitor.monitor.validate import validate_program
 
@@ -97,8 +97,8 @@ def test_good_program_passes_with_full_coverage(sandbox, constraints, scene):
     report = _run(GOOD, constraints, scene, sandbox)
     assert report.ok and report.fraction == 1.0
     assert report.covered == {b.id for b in report.branches}
-    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2
-    # state, 96 perturbations, turns, 2 meetings, the departures of 2 elements, 2 placements
+    assert report.n_inputs == 97 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2 + YAW_TURNS
+    # state, 96 perturbations, turns, 2 meetings, the departures of 2 elements, 2 placements, turns about the vertical
     assert {b.kind for b in report.branches} == {"entry", "if-true", "if-false"}
 
 
@@ -177,7 +177,7 @@ def test_overrun_on_a_branch_stops_early(constraints, scene):
 
 def test_factory_and_rejection_before_running(constraints, scene):
     report = _run(GOOD, constraints, scene, lambda: Sandbox(deadline_s=0.1), n_perturbations=32)
-    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2  # 2 elements
+    assert report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2 + YAW_TURNS  # 2 elements
     with pytest.raises(ProgramError, match="'while'"):
         _run(GOOD + "\ndef f():\n    while True:\n        pass\n", constraints, scene, None)
 
@@ -186,7 +186,7 @@ def test_probes_are_consistent_and_deterministic(scene):
     H = {i: np.repeat(p[None], 5, axis=0) for i, p in scene.items()}
     Ht = np.linspace(0.0, 0.4, 5)
     probes = make_probes(scene, H, Ht, 0.4, n=40, seed=3)
-    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2
+    assert len(probes) == 41 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2 + YAW_TURNS
     assert probes[0].description.startswith("the current state")
     assert [p.description for p in probes] == [p.description for p in make_probes(scene, H, Ht, 0.4, 40, 3)]
     for p in probes:
@@ -199,10 +199,17 @@ def test_probes_are_consistent_and_deterministic(scene):
     assert 1 in lengths and 5 in lengths
     assert any("piled" in p.description for p in probes) and any("rotated" in p.description for p in probes)
     turns = [p for p in probes if "turned" in p.description]
-    assert len(turns) == TURNS_PER_ELEMENT  # the surface (element 1) turned into its current pose; the point never
+    # the surface (element 1) turned into its current pose about random axes, then about the vertical at angles one
+    # from each stratum of 0.2 rad to a quarter-turn; the point never
+    assert len(turns) == TURNS_PER_ELEMENT + YAW_TURNS
     for p in turns:
         first, last = p.history[1][0], p.history[1][-1]
         assert not np.allclose(first, last) and np.allclose(first.mean(axis=0), last.mean(axis=0))
+    yaws = [abs(float(p.description.split(" turned ")[1].split(" deg")[0])) for p in turns[-YAW_TURNS:]]
+    edges = np.degrees(np.linspace(0.2, np.pi / 2, YAW_TURNS + 1))
+    assert all(lo - 0.5 <= y <= hi + 0.5 for y, lo, hi in zip(yaws, edges[:-1], edges[1:])), yaws
+    for p in turns[-YAW_TURNS:]:
+        np.testing.assert_allclose(p.history[1][0][:, 2], p.history[1][-1][:, 2], atol=1e-12)  # about the vertical
     meets = [p for p in probes if "moved since the oldest frame" in p.description]
     assert len(meets) == 2  # each element carried to the other (a block to the suction tip)
     for p in meets:

@@ -18,7 +18,7 @@ from code_as_monitor.monitor import (
     unmet_upon,
     upon_satisfied,
 )
-from code_as_monitor.monitor.perturb import DEPARTURES_PER_ELEMENT, TURNS_PER_ELEMENT
+from code_as_monitor.monitor.perturb import DEPARTURES_PER_ELEMENT, TURNS_PER_ELEMENT, YAW_TURNS
 
 
 def _v(cid: str, phase: Phase, ok: bool, fault: bool = False) -> Verdict:
@@ -28,7 +28,7 @@ def _v(cid: str, phase: Phase, ok: bool, fault: bool = False) -> Verdict:
 def test_start_step_and_classify(constraints, scene):
     with MonitorRuntime(deadline_s=0.1, n_perturbations=32) as rt:
         report = rt.start(GOOD, constraints, scene, None, None, 0.0)
-        assert report.ok and report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2
+        assert report.ok and report.n_inputs == 33 + TURNS_PER_ELEMENT + 2 + 2 * DEPARTURES_PER_ELEMENT + 2 + YAW_TURNS
         v = rt.step(scene, None, None, 0.1)
         assert not any_during_violated(v) and upon_satisfied(v)
         dropped = {0: scene[0] + [0.0, 0.0, 0.3], 1: scene[1] - [0.0, 0.0, 0.15]}

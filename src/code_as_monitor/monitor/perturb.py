@@ -7,7 +7,8 @@ static, moving, turning (a line or surface that rotated into its current pose), 
 longer, meetings (one element moved since the oldest frame to where another is now: a block carried
 up to the suction tip), departures (one element moved away since the oldest frame while the others stayed:
 a block knocked off the gripper's path) and placements (one element put just above another: a block over
-its target; pairs that one constraint names together at several heights). Elements of one object part
+its target; pairs that one constraint names together at several heights) and, last, turns about the vertical at
+stratified angles (a lever or a lid turned on the table by so much). Elements of one object part
 (``groups``: several point elements when lines and surfaces are handed over as unconnected points) move together
 in the meetings, departures and placements and turn together in turning histories, as the part they stand for would.
 Every array is world frame, metres; times are seconds.
@@ -96,6 +97,12 @@ def _with_history(state: State, T: int, t: float, start_offset: np.ndarray | Non
 TURNS_PER_ELEMENT = 3
 """Turning-history probes per line or surface element, added after the ``n`` perturbations: a check that
 compares an element's direction with its oldest one (a book turned under the gripper) needs them."""
+YAW_TURNS = 6
+"""Turning-history probes about the vertical per line or surface element (or part), added last: a lever, knob, lid
+or book turned on the table turns about the vertical, and a check that asks for a turn within a band of angles
+(a tap turned 60 degrees, judged 45 to 75) is only True there, which the random-axis turns above, whose turn seen
+from above is smaller, rarely reach. Angles drawn from as many equal strata of 0.2 rad to a quarter-turn (strata
+13 degrees wide: every band at least 26 degrees wide holds one whole stratum)."""
 MAX_MEETINGS = 30
 """Meeting probes (element b raised, and element a moved since the oldest frame to where b is then) added
 after the turning histories: a check that an object rose with the gripper since the grasp began (a block
@@ -200,11 +207,12 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
 
     turn_rng = np.random.default_rng([seed, 1])  # its own stream: the other probes stay as they were
 
-    def turning_history(i: int, members: list[int] | None = None) -> Probe:
+    def turning_history(i: int, members: list[int] | None = None, axis: np.ndarray | None = None,
+                        angle: float | None = None, rng: np.random.Generator = turn_rng) -> Probe:
         g = members or [i]
-        axis = turn_rng.normal(size=3)
-        angle = turn_rng.uniform(0.2, np.pi / 2) * turn_rng.choice([-1.0, 1.0])
-        T = int(turn_rng.choice([2, 3, max(T0, 5)]))
+        axis = rng.normal(size=3) if axis is None else axis
+        angle = rng.uniform(0.2, np.pi / 2) * rng.choice([-1.0, 1.0]) if angle is None else angle
+        T = int(rng.choice([2, 3, max(T0, 5)]))
         E, H, Ht = _with_history(base, T, t, None)
         c = np.concatenate([E[k] for k in g], axis=0).mean(axis=0)
         for k in g:
@@ -275,6 +283,14 @@ def make_probes(elements: dict[int, np.ndarray], history: dict[int, np.ndarray] 
     place_rng = np.random.default_rng([seed, 3])  # a stream of its own
     probes += [_placement(base, i, j, group_pair(i, j), lift)
                for i, j, lift in _placement_plan(ids, related, groups, place_rng)]
+    yaw_rng = np.random.default_rng([seed, 4])  # a stream of its own, last: the probes above stay as they were
+    up = np.array([0.0, 0.0, 1.0])
+    turners = [(i, None) for i in ids if len(base[0][i]) >= 2]
+    turners += [(m[0], m) for m in ([k for k in g if k in base[0]] for g in parts)]
+    for i, members in turners:
+        for lo, hi in itertools.pairwise(np.linspace(0.2, np.pi / 2, YAW_TURNS + 1)):
+            angle = float(yaw_rng.uniform(lo, hi)) * float(yaw_rng.choice([-1.0, 1.0]))
+            probes.append(turning_history(i, members, up, angle, yaw_rng))
     return probes
 
 
