@@ -167,3 +167,28 @@ def test_the_jaws_read_closed_on_the_part_as_the_kb_expects(task: str, family: s
         while not env.policy.done:
             env.policy.step()
         assert th["min_jaw"] <= jaw(env.world) <= th["max_jaw"]
+
+
+@pytest.mark.parametrize(("angle", "turned", "ok"), [
+    (45.0, 45.0, True), (45.0, 28.0, False), (45.0, 64.0, False), (90.0, 78.0, True), (90.0, 99.0, True),
+])
+def test_a_tap_turned_within_the_angle_asked_for_succeeds(angle: float, turned: float, ok: bool) -> None:
+    """Success is the named handle turned open by the angle asked for, give or take 15 degrees (a quarter-turn: at
+    least 75, its travel ends at 100)."""
+    import pybullet as pb
+
+    with make_env("turn-tap", seed=0, disturbed=False, angle=angle) as env:
+        w, task = env.world, env.task
+        body = w.body_of("tap")
+        pb.resetJointState(body, task.joints["left_handle"], task.turn_sign("left_handle") * np.radians(turned),
+                           physicsClientId=w.client)
+        res = task.evaluate(w)
+        assert res.success is ok, res.reason
+
+
+@pytest.mark.slow
+def test_the_exact_oracle_turns_the_angle_asked_for() -> None:
+    for seed in range(2):
+        res = run_open_loop("turn-tap", seed=seed, noise=0.0, instruction="turn the left tap 50 degrees")
+        assert res.success, (seed, res.reason)
+        assert abs(res.info["opened_deg"] - 50.0) <= 5.0, res.info

@@ -75,6 +75,51 @@ def test_turn_tap_takes_its_side_from_the_instruction() -> None:
     assert task.config.side == "right" and task.default_plan()[0].args["part"] == "right_handle"
 
 
+@pytest.mark.parametrize(("text", "angle"), [
+    ("turn the right tap 60 degrees", 60.0), ("turn the left tap by 45 degrees", 45.0),
+    ("rotate the left faucet about 30 deg", 30.0), ("turn the right tap 90 degrees", None),
+])
+def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float | None) -> None:
+    """"Turn the right tap 60 degrees" asks for a 60-degree turn: the plan turns 60, its checks accept 45 to 75, and
+    the task's success asks the same (before, "degrees" was an unknown word, although the kb's own subgoal text reads
+    "turn the left tap 90 degrees open"). A quarter-turn is the default: no task parameter, the default plan."""
+    from code_as_monitor.sim.env import make_task
+
+    task = make_task("turn-tap", instruction=text)
+    want = 90.0 if angle is None else angle
+    assert task.config.angle == want
+    turn = _chain(text, [None, "success"])[-1]
+    assert turn.action.args["angle"] == want == task.default_plan()[1].args["angle"]
+    turned = next(c for c in turn.constraints if c.id.startswith("turned"))
+    assert turned.thresholds["min_turn"] == pytest.approx(np.radians(want - 15.0), abs=2e-3)
+    assert ("max_turn" in turned.thresholds) is (angle is not None)
+    least, most = task.turn_band()
+    assert np.degrees(least) == pytest.approx(want - 15.0) and np.degrees(most) == pytest.approx(want + 15.0)
+
+
+@pytest.mark.parametrize(("text", "why"), [
+    ("turn the left tap 120 degrees", "30 to 90 degrees"),
+    ("turn the left tap 10 degrees", "30 to 90 degrees"),
+    ("turn the left tap at least 45 degrees", "one angle"),
+    ("turn the left tap 45 degrees and 60 degrees", "one angle"),
+    ("turn the left tap 5 cm", "5 cm"),
+    ("open the drawer 45 degrees", "by a length"),
+])
+def test_an_angle_the_rules_cannot_honour_is_refused(text: str, why: str) -> None:
+    objects = ["drawer_cabinet", "table"] if "drawer" in text else ["tap", "table"]
+    with pytest.raises(InstructionError, match=why):
+        understand(text, objects)
+
+
+def test_a_turn_angle_out_of_range_is_a_config_error_naming_it() -> None:
+    from code_as_monitor.core.errors import ConfigError
+    from code_as_monitor.sim.env import make_task
+
+    for bad in (20.0, 95.0, "ninety"):
+        with pytest.raises(ConfigError, match=f"turn-tap.angle.*{bad!r}"):
+            make_task("turn-tap", angle=bad)
+
+
 @pytest.mark.parametrize(("task", "after", "feedback", "skill"), [
     ("put-in-drawer", 1, "failure: pulled_drawer_cabinet: the drawer came out only 0.04 m", "grasp"),
     ("put-in-drawer", 3, "failure: overtray_block: not over the open drawer", "grasp"),
@@ -227,6 +272,28 @@ def test_turn_tap_checks(make_elements, run_program, history_of) -> None:
     for angle, ok in ((np.radians(-88.0), True), (np.radians(-40.0), False)):
         now = make_elements(turn, {**base, **_tap(angle)})
         assert run_program(src, now, history_of(start, now))["turned_tap"][0] is ok
+
+
+def test_a_smaller_turn_is_judged_in_its_band(make_elements, run_program, history_of) -> None:
+    """A 60-degree turn asked for is judged turned at 45 to 75 degrees: short of it and past it are failures, and
+    its program passes validation and path coverage (the probes turn lines about the vertical through every band)."""
+    text, base = "turn the left tap 60 degrees", SCENES["turn-tap"]
+    turn = _chain(text, [None, "success"])[-1]
+    els = make_elements(turn, base)
+    src = MonitorCoder(KBBackend()).write_program(turn, els, {},
+                                                  lambda s: validate.validate_program(s, turn.constraints))
+    start = make_elements(turn, base)
+    for deg, ok in ((-40.0, False), (-50.0, True), (-60.0, True), (-72.0, True), (-80.0, False), (-88.0, False)):
+        now = make_elements(turn, {**base, **_tap(np.radians(deg))})
+        got = run_program(src, now, history_of(start, now))["turned_tap"]
+        assert got[0] is ok, (deg, got)
+    box = sandbox.Sandbox()
+    box.start()
+    try:
+        coverage.check_path_coverage(src, turn.constraints, {e.id: e.points for e in els}, None, None, 0.0, box,
+                                     deadline_s=2.0, reject_failing_at_start=True)
+    finally:
+        box.close()
 
 
 def test_drag_stick_checks(make_elements, run_program) -> None:

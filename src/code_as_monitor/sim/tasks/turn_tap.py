@@ -3,21 +3,24 @@
 Description: a ``tap`` (``assets/tap.urdf``, a fixed-base articulated body) with parts ``body`` (the deck and
 spout), ``left_handle`` (red) and ``right_handle`` (blue), each a lever on its own real revolute joint about the
 vertical, closed with the lever pointing towards the robot. Turning a handle outwards by ``TURN_ANGLE`` (90
-degrees; the left one clockwise seen from above, the right one anticlockwise) opens it; a friction motor keeps
-a lever where it is left. Parallel-jaw gripper; RLBench's four cameras. Plan: ``grasp`` the handle's lever (jaws
-across the bar), ``turn`` it about its hinge (the grasp point follows the arc), let go, park.
+degrees, a quarter-turn; the left one clockwise seen from above, the right one anticlockwise) opens it; a friction
+motor keeps a lever where it is left. Config ``angle``: how far to turn it (degrees, ``MIN_ANGLE`` to
+``TURN_ANGLE``; "turn the left tap 45 degrees" sets it). Parallel-jaw gripper; RLBench's four cameras. Plan:
+``grasp`` the handle's lever (jaws across the bar), ``turn`` it about its hinge (the grasp point follows the arc),
+let go, park.
 
 Randomisation: the tap 0.45-0.55 m from the base at a bearing within +-20 degrees, its front (+x) facing the
 base within +-15 degrees. Config ``side``: which handle the instruction names (RLBench's two variations).
 
-Success: the named handle is turned open by at least ``TURN_MIN`` (75 degrees), the other one stays within
-``OTHER_MAX`` (20 degrees) of closed, and the gripper has let go, within the time limit.
+Success: the named handle is turned open by ``angle`` give or take ``TURN_TOL`` (15 degrees: at least 75 for the
+quarter-turn; its travel, 100 degrees, ends before 105), the other one stays within ``OTHER_MAX`` (20 degrees) of
+closed, and the gripper has let go, within the time limit.
 
 Disturbances: none (the RLBench protocol injects none); the policy's own mistakes are the failures. Action
 noise (``NOISE``): the grasp point, the turn's angle, and now and then the other handle taken for the named
 one (``wrong_target``). Ground truth: ``policy_failure`` with ``what`` ``grasp_missed`` (the jaws closed on
 nothing of the tap), ``wrong_target`` (they closed on the other handle) or ``turn_short`` (let go with the named
-handle turned less than ``TURN_MIN``).
+handle turned less than ``angle - TURN_TOL``).
 Expected failure signals: the named handle's lever is not between the jaws after the grasp; the lever's
 direction has not turned by the angle asked for after the turn; the other handle's lever moved.
 """
@@ -35,8 +38,9 @@ from code_as_monitor.sim.tasks.base import TaskConfig, TaskResult
 from code_as_monitor.sim.tasks.rlbench_base import RLBenchConfig, RLBenchTask
 
 OBJ = "tap"
-TURN_ANGLE = 90.0  # degrees the plan asks for
-TURN_MIN = np.radians(75.0)  # success: the named handle open by at least this
+TURN_ANGLE = 90.0  # degrees the plan asks for by default (a quarter-turn), and the most it may ask for
+MIN_ANGLE = 30.0  # degrees: the least turn a task may ask for (below it the tolerance reaches the closed lever)
+TURN_TOL = 15.0  # degrees: success within this of the angle asked for
 OTHER_MAX = np.radians(20.0)  # ... and the other within this of closed
 LEVER_CENTRE = np.array([0.042, 0.0, 0.023])  # the lever bar's centre in its handle's frame (the hinge), metres
 VALVE_FRICTION = 0.05  # N m, a handle's turning friction (a velocity motor with target 0; at 0.3 the soft grasp
@@ -47,15 +51,24 @@ SIDES = ("left", "right")
 @TaskConfig.register("turn-tap")
 @dataclass
 class TurnTapConfig(RLBenchConfig):
-    """``side``: ``left`` or ``right``, the handle to turn; ``noise``: scale of the policy's action noise."""
+    """``side``: ``left`` or ``right``, the handle to turn; ``angle``: degrees to turn it open (``MIN_ANGLE`` to
+    ``TURN_ANGLE``); ``noise``: scale of the policy's action noise."""
 
     time_limit: float = 40.0
     side: str = "left"
+    angle: float = TURN_ANGLE
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.side not in SIDES:
             raise ConfigError(f"turn-tap.side must be one of {', '.join(SIDES)}; got {self.side!r}")
+        if not isinstance(self.angle, (int, float)) or not MIN_ANGLE <= float(self.angle) <= TURN_ANGLE:
+            raise ConfigError(f"turn-tap.angle must be {MIN_ANGLE:g} to {TURN_ANGLE:g} degrees; got {self.angle!r}")
+
+
+def describe_turn(side: str, angle: float) -> str:
+    """The instruction for turning the ``side`` tap ``angle`` degrees (the grammar reads it back to the same)."""
+    return f"turn the {side} tap" if abs(angle - TURN_ANGLE) < 1e-9 else f"turn the {side} tap {angle:g} degrees"
 
 
 class TurnTap(RLBenchTask):
@@ -67,7 +80,7 @@ class TurnTap(RLBenchTask):
         self.config: TurnTapConfig = config
         self.part = f"{config.side}_handle"
         self.other = f"{'right' if config.side == 'left' else 'left'}_handle"
-        self.instruction = f"turn the {config.side} tap"  # type: ignore[misc]
+        self.instruction = describe_turn(config.side, float(config.angle))  # type: ignore[misc]
         self.joints: dict[str, int] = {}
 
     def load_scene(self, world: Any) -> None:
@@ -147,8 +160,13 @@ class TurnTap(RLBenchTask):
         """How far ``part`` is turned in its opening direction, radians."""
         return self.turn_sign(part) * self.angle(world, part)
 
+    def turn_band(self) -> tuple[float, float]:
+        """(least, most) radians the named handle may be turned open for success."""
+        a = float(self.config.angle)
+        return float(np.radians(a - TURN_TOL)), float(np.radians(a + TURN_TOL))
+
     def judge(self, world: Any, skill: str, args: dict[str, Any]) -> str | None:
-        if skill == "turn" and self.opened(world, self.part) < TURN_MIN:
+        if skill == "turn" and self.opened(world, self.part) < self.turn_band()[0]:
             return "turn_short"
         return super().judge(world, skill, args)
 
@@ -156,9 +174,14 @@ class TurnTap(RLBenchTask):
         a, o = self.opened(world, self.part), abs(self.angle(world, self.other))
         held = world.robot.ee.holding == world.body_of(OBJ)
         info = {"t": world.t, "opened_deg": float(np.degrees(a)), "other_deg": float(np.degrees(o))}
-        if a < TURN_MIN:
+        least, most = self.turn_band()
+        if a < least:
             return TaskResult(False, f"the {self.config.side} tap is turned {np.degrees(a):.0f} degrees "
-                                     f"(needs {np.degrees(TURN_MIN):.0f})", info)
+                                     f"(needs {np.degrees(least):.0f})", info)
+        if a > most:
+            return TaskResult(False, f"the {self.config.side} tap is turned {np.degrees(a):.0f} degrees, more "
+                                     f"than the {float(self.config.angle):g} asked for (at most "
+                                     f"{np.degrees(most):.0f})", info)
         if o > OTHER_MAX:
             return TaskResult(False, f"the other tap was turned too ({np.degrees(o):.0f} degrees)", info)
         if held:
@@ -170,7 +193,7 @@ class TurnTap(RLBenchTask):
     def default_plan(self) -> list[Action]:
         return [
             Action("grasp", {"obj": OBJ, "part": self.part}),
-            Action("turn", {"obj": OBJ, "part": self.part, "angle": TURN_ANGLE}),
+            Action("turn", {"obj": OBJ, "part": self.part, "angle": float(self.config.angle)}),
         ]
 
 

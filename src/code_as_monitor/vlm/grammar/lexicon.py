@@ -25,6 +25,7 @@ neg       a negation: not, never, without, except, but
 mod       a manner or end state: ``upright``, ``flat``, ``out``, ``in``, ``open``, ``closed``,
           ``halfway``, ``fully``, ``tip_down``, ``level``, ``up``, ``down``
 unit      a length unit, value in metres per unit
+angle     an angle unit after a number (degree, degrees, deg), value in degrees per unit
 pron      a pronoun: ``it`` (it, this, that), ``them`` (them, they, these, those)
 filler    a word that changes nothing (please, carefully, so that, is, ...)
 ========= ======================================================================================
@@ -204,6 +205,9 @@ UNITS: dict[str, float] = {
     "centimeter": 0.01, "centimetres": 0.01, "centimeters": 0.01, "mm": 0.001, "millimetre": 0.001,
     "millimeter": 0.001, "millimetres": 0.001, "millimeters": 0.001, "inch": 0.0254, "inches": 0.0254,
 }
+
+ANGLES: dict[str, float] = {"degree": 1.0, "degrees": 1.0, "deg": 1.0, "degs": 1.0}
+"""Angle units after a number ("turn the left tap 45 degrees"), degrees per unit."""
 
 MODIFIERS: dict[tuple[str, ...], str] = {
     ("upright",): "upright", ("vertically",): "upright", ("vertical",): "upright", ("standing",): "upright",

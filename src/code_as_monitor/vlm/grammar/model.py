@@ -102,12 +102,21 @@ class Listing:
 
 @dataclass(frozen=True)
 class Measure:
-    """A length ("10 cm"), in metres; ``text`` the words; ``bound`` as in :class:`Quantity` (``plain``,
-    ``about``, ``exact``, ``at_least``, ``at_most``, ``more``, ``fewer``): "at least 10 cm", "up to 10 cm"."""
+    """A length ("10 cm": ``value`` in metres) or an angle ("45 degrees": ``value`` in degrees, ``kind``
+    ``angle``); ``text`` the words; ``bound`` as in :class:`Quantity` (``plain``, ``about``, ``exact``,
+    ``at_least``, ``at_most``, ``more``, ``fewer``): "at least 10 cm", "up to 10 cm"."""
 
-    metres: float
+    value: float
     text: str
     bound: str = "plain"
+    kind: str = "length"
+
+    @property
+    def metres(self) -> float:
+        """The length in metres (a ValueError for an angle: a reader asks ``kind`` first)."""
+        if self.kind != "length":
+            raise ValueError(f"{self.text!r} is an angle, not a length")
+        return self.value
 
 
 @dataclass(frozen=True)
@@ -121,7 +130,7 @@ class Instruction:
         verbs: canonical verbs in order ("stack", "put", "pour", ...).
         modifiers: canonical manner / end-state words in order ("upright", "out", "tip_down", ...).
         directions: ``up`` / ``down`` for a listing read bottom-to-top or top-to-bottom.
-        measures: lengths.
+        measures: lengths and angles.
         negations: negation words ("not", "without", ...).
         unknown: words outside the lexicon, in order.
         stray: known words the parser could attach to nothing (a dangling number, a lone "the").

@@ -179,7 +179,7 @@ class _Parser:
                     and nxt.kind in ("noun", "colour"):
                 self.np.position = str(tok.value)  # "the top block"
                 self.np.words.append(tok.text)
-            elif k == "unit":
+            elif k in ("unit", "angle"):
                 self.unit(i, tok)
             else:
                 if k == "pos" and self.np is not None and self.np.det and self.np.empty():
@@ -199,7 +199,8 @@ class _Parser:
             bound, words = np.cmp or "plain", [*np.words, tok.text]
             if self.prep is not None and self.prep[0] == "up_to":
                 bound, words = "at_most", [self.prep[2], *words]  # "up to 10 cm"
-            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join(words), bound))
+            kind = "angle" if tok.kind == "angle" else "length"
+            self.measures.append(Measure(np.nums[0] * float(tok.value), " ".join(words), bound, kind))
             if self.prep is not None and self.prep[0] in ("by", "to", "up_to"):
                 self.prep = None  # "by 10 cm"
             return

@@ -126,6 +126,8 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
         return Token("neg", word, word)
     if word in lx.UNITS and prev is not None and prev.kind == "num":
         return Token("unit", lx.UNITS[word], word)
+    if word in lx.ANGLES and prev is not None and prev.kind == "num":
+        return Token("angle", lx.ANGLES[word], word)
     if word in lx.PERCENT and prev is not None and prev.kind == "num":
         return Token("unit", "percent", word)
     if (word,) in lx.QUANTIFIERS:

@@ -185,6 +185,8 @@ def _opening(r: Reading) -> float:
         return round(DRAWER_TRAVEL / 2, 4) if halfway else DRAWER_OPEN
     m = ins.measures[0]
     r.used_measures.add(0)
+    if m.kind != "length":
+        r.refuse(f"a drawer opens by a length, not by {m.text!r} (say e.g. 'open the drawer 10 cm')")
     if m.bound not in ("plain", "about", "at_least", "more"):
         r.refuse(f"cannot promise {m.text!r}: the kb pulls a little past the opening asked for and checks "
                  f"that the drawer came out at least that far (say e.g. 'open the drawer 10 cm')")

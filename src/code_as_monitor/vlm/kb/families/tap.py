@@ -4,6 +4,10 @@
 Plan: ``grasp`` the named handle's lever (jaws across the bar) -> ``turn`` it ``TURN_DEG`` about its hinge (the
 skill turns it outwards and lets go at the end) -> done.
 
+How far: a quarter-turn (``TURN_DEG``), or an angle the instruction gives ("turn the left tap 45 degrees", "by 60
+degrees"), from ``MIN_TURN_DEG`` to ``TURN_DEG``: the task's ``angle`` (its success is within ``TURN_TOL_DEG`` of
+it) and the checks' band. Bounds ("at least 45 degrees", "up to 60 degrees") are refused: the turn aims at one angle.
+
 Elements: the grasp point (``robot/tip``, point), the named handle's lever (``tap/left_handle``, a LINE: the
 lever's two ends; its direction is what turns), the other handle (``tap/right_handle``, point), the jaws
 (``robot/finger_left``, ``robot/finger_right``: proprioception). A handle is judged by its own elements, so
@@ -17,6 +21,7 @@ the kb cannot turn it back) -> grasp the named handle again, then turn it; ``lev
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +34,13 @@ from code_as_monitor.vlm.kb.shared.grip import FINGER_LEFT, FINGER_RIGHT, GRIP_T
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
 TURN_DEG = 90.0
-"""Degrees a tap's handle turns from closed to open."""
+"""Degrees a tap's handle turns from closed to open (a quarter-turn), and the most the kb turns it."""
+MIN_TURN_DEG = 30.0
+"""The least turn the kb plans: below it the tolerance band reaches the closed lever."""
+TURN_TOL_DEG = 15.0
+"""Degrees either side of the angle asked for that count as turned so (75 of 90: a lever a quarter-turn open, give
+or take the painted line's direction error). The lever's travel (100 degrees, sim/assets/tap.urdf) ends inside the
+band above a quarter-turn, so only a smaller turn has an upper bound to check."""
 
 THRESHOLDS: dict[str, dict[str, float]] = {
     # From sim/assets/tap.urdf: a lever is a 7 cm bar, 1.4 cm thick, on a hinge; the handles are 16 cm apart.
@@ -46,7 +57,8 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # turn, during: the other handle does not move (2 cm).
     "otherstill": {"max_disp": 0.02},
     # turn, upon: the lever's direction turned at least 75 degrees (1.31 rad) of the 90 since the turn began:
-    # a lever a quarter-turn open, give or take the painted line's direction error.
+    # a lever a quarter-turn open, give or take the painted line's direction error (TURN_TOL_DEG). For a smaller
+    # turn asked for, the band is the angle -+ TURN_TOL_DEG (``max_turn`` then added).
     "turned": {"min_turn": 1.31},
     # turn, upon: released: the grasp point 6 cm from the lever's middle (3 cm grip tolerance + the fingers'
     # 3 cm reach past the bar).
@@ -60,17 +72,19 @@ def _thr(kind: str) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class TapGoal:
-    """The tap, the handle to turn and the other one."""
+    """The tap, the handle to turn, the other one, and how far to turn it (degrees)."""
 
     tap: str
     part: str
     other: str
+    angle: float = TURN_DEG
 
 
 VERBS = ("turn", "open", "grasp")
 MODIFIERS = ("open", "on", "fully")
 HEADS = ("tap", "handle")
-DOING = "turns the named tap's handle a quarter-turn open"
+DOING = (f"turns the named tap's handle a quarter-turn open, or an angle from {MIN_TURN_DEG:g} to {TURN_DEG:g} "
+         f"degrees")
 
 
 def claims(ins: Instruction) -> bool:
@@ -105,8 +119,27 @@ def understand(ins: Instruction, objects: list[str]) -> TapGoal | None:
     if not tap:
         r.refuse("the scene has no tap")
     side = sides.pop()
+    angle = _angle(r)
     r.finish()
-    return TapGoal(tap, f"{side}_handle", f"{'right' if side == 'left' else 'left'}_handle")
+    return TapGoal(tap, f"{side}_handle", f"{'right' if side == 'left' else 'left'}_handle", angle)
+
+
+def _angle(r: Reading) -> float:
+    """Degrees to turn: the instruction's angle, or a quarter-turn (the measures read are marked used)."""
+    angles = [(i, m) for i, m in enumerate(r.ins.measures) if m.kind == "angle"]
+    if not angles:
+        return TURN_DEG
+    if len(angles) > 1:
+        r.refuse("say one angle, e.g. 'turn the left tap 45 degrees'")
+    i, m = angles[0]
+    r.used_measures.add(i)
+    if m.bound not in ("plain", "about", "exact"):
+        r.refuse(f"cannot promise {m.text!r}: the turn aims at one angle, judged within {TURN_TOL_DEG:g} degrees "
+                 f"of it (say e.g. 'turn the left tap 45 degrees')")
+    if not MIN_TURN_DEG - 1e-9 <= m.value <= TURN_DEG + 1e-9:
+        r.refuse(f"cannot turn the tap {m.text!r}: the kb turns a handle {MIN_TURN_DEG:g} to {TURN_DEG:g} degrees "
+                 f"(a quarter-turn opens it)")
+    return round(float(m.value), 2)
 
 
 def scene(ins: Instruction) -> list[str] | None:
@@ -140,15 +173,21 @@ def grasp(g: TapGoal) -> list[dict[str, Any]]:
 
 def turn(g: TapGoal) -> list[dict[str, Any]]:
     """``turn``: during, the lever stays in the gripper and the other handle stays put; upon, the lever turned
-    most of a quarter-turn and is released."""
+    the angle asked for (most of a quarter-turn by default) and is released."""
     lv, ot, tu, fr = _thr("levered"), _thr("otherstill"), _thr("turned"), _thr("lever_freed")
+    least = g.angle - TURN_TOL_DEG
+    if abs(g.angle - TURN_DEG) > 1e-9:
+        lv["min_turn"] = tu["min_turn"] = round(math.radians(least), 4)
+        tu["max_turn"] = round(math.radians(g.angle + TURN_TOL_DEG), 4)
+    band = f"at least {least:.0f} degrees" if "max_turn" not in tu else \
+        f"{least:.0f} to {g.angle + TURN_TOL_DEG:.0f} degrees (asked: {g.angle:g})"
     name = f"the {g.part.replace('_', ' ')} of {nice(g.tap)}"
     return [
         constraint(f"levered_{g.tap}", f"{name} stays in the gripper (within {lv['max_dist'] * 100:.0f} cm of the grasp "
-                   f"point) until it has turned 75 degrees", "during", False, lv, [GRIP_TIP, _lever(g)]),
+                   f"point) until it has turned {least:.0f} degrees", "during", False, lv, [GRIP_TIP, _lever(g)]),
         constraint(f"otherstill_{g.tap}", f"the {g.other.replace('_', ' ')} of {nice(g.tap)} does not move (within "
                    f"{ot['max_disp'] * 100:.0f} cm)", "during", False, ot, [_other(g)]),
-        constraint(f"turned_{g.tap}", f"{name} turned at least 75 degrees since the turn began (its lever's direction)",
+        constraint(f"turned_{g.tap}", f"{name} turned {band} since the turn began (its lever's direction)",
                    "upon", False, tu, [_lever(g)]),
         constraint(f"leverfreed_{g.tap}", f"{name} is released: the grasp point at least "
                    f"{fr['release_dist'] * 100:.0f} cm from its lever", "upon", False, fr, [GRIP_TIP, _lever(g)]),
@@ -218,10 +257,17 @@ def levered(c: Spec) -> str:
 
 
 def turned(c: Spec) -> str:
-    """Parts: [lever (line)]. Its horizontal direction turned ``min_turn`` since the turn began."""
+    """Parts: [lever (line)]. Its horizontal direction turned ``min_turn`` (and at most ``max_turn``, when given)
+    since the turn began."""
     (x,) = c["element_ids"][:1]
     mt, xn = num(c["thresholds"]["min_turn"]), obj_name(c, 0)
-    body = _turn_lines(x) + f"""
+    over = ""
+    if "max_turn" in c["thresholds"]:
+        xt = num(c["thresholds"]["max_turn"])
+        over = f"""
+    if a > {xt}:
+        return False, {lit("the lever of " + xn + " turned %.0f degrees, past the %.0f asked for")} % (math.degrees(a), math.degrees({xt})), {xt} - a"""
+    body = _turn_lines(x) + over + f"""
     if a >= {mt}:
         return True, {lit("the lever of " + xn + " turned %.0f degrees")} % math.degrees(a), a - {mt}
     return False, {lit("the lever of " + xn + " turned only %.0f degrees (needs %.0f)")} % (math.degrees(a), math.degrees({mt})), a - {mt}
@@ -237,13 +283,14 @@ def leverfreed(c: Spec) -> str:
 def next_subgoal(goal: TapGoal, previous: dict[str, Any] | None, feedback: str | None) -> dict[str, Any]:
     side = goal.part.split("_")[0]
     g = answer(f"grasp the lever of the {side} tap", "grasp", {"obj": goal.tap, "part": goal.part}, grasp(goal), "")
-    t = answer(f"turn the {side} tap {TURN_DEG:.0f} degrees open", "turn",
-               {"obj": goal.tap, "part": goal.part, "angle": TURN_DEG}, turn(goal), "")
+    t = answer(f"turn the {side} tap {goal.angle:g} degrees open", "turn",
+               {"obj": goal.tap, "part": goal.part, "angle": goal.angle}, turn(goal), "")
     skill = ((previous or {}).get("action") or {}).get("skill")
     if not previous or skill not in ("grasp", "turn"):
         if previous and previous.get("done"):
             return done(f"the {side} tap is open")
-        g["reasoning"] = f"grasp the {side} tap's lever, then turn it outwards a quarter-turn"
+        how = "a quarter-turn" if abs(goal.angle - TURN_DEG) < 1e-9 else f"{goal.angle:g} degrees"
+        g["reasoning"] = f"grasp the {side} tap's lever, then turn it outwards {how}"
         return g
     kind = failed_kind(feedback)
     if kind == "success":
@@ -266,7 +313,8 @@ FAMILY = TaskFamily(
     understand=understand,
     next_subgoal=next_subgoal,
     scene=scene,
-    task_params=lambda goal: {"side": goal.part.split("_")[0]},
+    task_params=lambda goal: {"side": goal.part.split("_")[0],
+                              **({} if abs(goal.angle - TURN_DEG) < 1e-9 else {"angle": goal.angle})},
     thresholds=THRESHOLDS,
     templates={"leverstill": leverstill, "otherstill": otherstill, "levergrip": levergrip, "levered": levered,
                "turned": turned, "leverfreed": leverfreed},
