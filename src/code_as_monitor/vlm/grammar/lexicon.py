@@ -207,7 +207,8 @@ UNITS: dict[str, float] = {
 }
 
 ANGLES: dict[str, float] = {"degree": 1.0, "degrees": 1.0, "deg": 1.0, "degs": 1.0}
-"""Angle units after a number ("turn the left tap 45 degrees"), degrees per unit."""
+"""Angle units after a number ("turn the left tap 45 degrees", "45°"), degrees per unit. A fraction of a turn ("a
+quarter turn", "half a turn") is an angle too: the tokenizer joins it (360 degrees a turn)."""
 
 MODIFIERS: dict[tuple[str, ...], str] = {
     ("upright",): "upright", ("vertically",): "upright", ("vertical",): "upright", ("standing",): "upright",

@@ -40,6 +40,7 @@ def normalise(text: str) -> list[str]:
     s = re.sub(r"(^|[^\w])-\s*(?=\d)", r"\1 minus ", s)  # "-10 cm": a word the lexicon does not know
     s = s.replace("-", " ")
     s = re.sub(r"(\d+(?:\.\d+)?)\s*(%|cm|mm|m)\b", r"\1 \2", s)
+    s = re.sub(r"(\d+(?:\.\d+)?)\s*\u00b0", r"\1 degrees ", s)  # "45\u00b0"
     s = re.sub(r"([,;:.!?()%\"])", r" \1 ", s)
     s = re.sub(r"(?<=\d) \. (?=\d)", ".", s)  # keep decimals
     return [w for w in s.split() if w not in ("?", "(", ")", "\"")]
@@ -189,11 +190,22 @@ def tokenize(text: str) -> list[Token]:
 
 
 def _fix_numbers(tokens: list[Token]) -> list[Token]:
-    """Join "two thirds" (num frac) into one fraction, "25 %" (num percent) into a fraction and "2 dozen" into
-    one number."""
+    """Join "two thirds" (num frac) into one fraction, "25 %" (num percent) into a fraction, "2 dozen" into
+    one number, and a fraction of a turn ("a quarter turn", "half a turn", "a third of a turn") into an angle
+    (the fraction as a number, "turn" as a unit of 360 degrees)."""
     out: list[Token] = []
     for t in tokens:
-        if out and out[-1].kind == "num" and t.kind == "num" and t.text in ("dozen", "hundred"):
+        if t.text in ("turn", "turns") and _turn_fraction(out):
+            words = []
+            while out[-1].kind != "frac":
+                words.insert(0, out.pop().text)  # "of a", "a" between the fraction and "turn"
+            f = out.pop()
+            if out and out[-1].kind == "num" and not f.text.endswith("s"):  # "one quarter of a turn"
+                n = out.pop()
+                f = Token("frac", float(n.value) * float(f.value), f"{n.text} {f.text}")  # type: ignore[arg-type]
+            out.append(Token("num", float(f.value), f.text))  # type: ignore[arg-type]
+            out.append(Token("angle", 360.0, " ".join([*words, t.text])))
+        elif out and out[-1].kind == "num" and t.kind == "num" and t.text in ("dozen", "hundred"):
             n = out.pop()  # "2 dozen", "two hundred"
             out.append(Token("num", float(n.value) * float(t.value), f"{n.text} {t.text}"))  # type: ignore[arg-type]
         elif out and out[-1].kind == "num" and t.kind == "frac" and t.text.endswith("s"):
@@ -205,3 +217,13 @@ def _fix_numbers(tokens: list[Token]) -> list[Token]:
         else:
             out.append(t)
     return out
+
+
+def _turn_fraction(out: list[Token]) -> bool:
+    """Whether ``out`` ends with a fraction, then optionally "of", then optionally "a" (before the word "turn")."""
+    k = len(out) - 1
+    if k >= 0 and out[k].kind == "det" and out[k].text == "a":
+        k -= 1
+    if k >= 0 and out[k].kind == "prep" and out[k].text == "of":
+        k -= 1
+    return k >= 0 and out[k].kind == "frac"

@@ -105,8 +105,10 @@ def understand(ins: Instruction, objects: list[str]) -> TapGoal | None:
         q = ins.resolve(p.index)
         if q.position in ("left", "right"):
             sides.add(q.position)
-        elif q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
+        elif q.position or q.ordinal:
             r.refuse(f"{p.text!r}: say which tap, the left or the right one")
+        if q.quantity is not None and q.quantity.value != 1:  # "both taps"; before, with a side it went unread
+            r.refuse(f"{q.quantity.text!r}: say which tap, the left or the right one (one handle is turned)")
         if q.colour:
             r.refuse(f"{p.text!r}: name the tap by its side (left or right), not its colour")
         r.use(p.index)

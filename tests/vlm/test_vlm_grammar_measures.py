@@ -1,0 +1,36 @@
+"""Measures the instruction grammar reads: lengths (metres) and angles (degrees), with their words and bounds."""
+
+from __future__ import annotations
+
+import pytest
+
+from code_as_monitor.vlm.grammar import parse
+
+
+@pytest.mark.parametrize(("text", "value", "kind", "words"), [
+    ("open the drawer 10 cm", 0.10, "length", "10 cm"),
+    ("open the drawer by 4 inches", 0.1016, "length", "4 inches"),
+    ("turn the left tap 45 degrees", 45.0, "angle", "45 degrees"),
+    ("turn the left tap by 60 deg", 60.0, "angle", "60 deg"),
+    ("turn the left tap 45\u00b0", 45.0, "angle", "45 degrees"),
+    ("turn the left tap a quarter turn", 90.0, "angle", "a quarter turn"),
+    ("turn the left tap a quarter-turn", 90.0, "angle", "a quarter turn"),
+    ("turn the left tap half a turn", 180.0, "angle", "half a turn"),
+    ("turn the left tap a third of a turn", 120.0, "angle", "a third of a turn"),
+    ("turn the left tap one quarter of a turn", 90.0, "angle", "one quarter of a turn"),
+])
+def test_a_measure_is_read_with_its_kind_and_words(text: str, value: float, kind: str, words: str) -> None:
+    (m,) = parse(text).measures
+    assert m.value == pytest.approx(value) and m.kind == kind and m.text == words
+    if kind == "length":
+        assert m.metres == pytest.approx(value)
+    else:
+        with pytest.raises(ValueError, match="angle"):
+            _ = m.metres
+
+
+@pytest.mark.parametrize("text", ["turn the left tap", "turn the tap, then turn it back",
+                                  "sweep a third of the blocks into the zone"])
+def test_turn_as_a_verb_and_fractions_of_things_are_not_angles(text: str) -> None:
+    ins = parse(text)
+    assert not ins.measures and ins.verbs[0] in ("turn", "sweep")
