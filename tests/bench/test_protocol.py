@@ -15,7 +15,8 @@ def test_conditions_are_the_paper_rows():
                                       "book-c", "tea-none", "tea-a", "tea-b", "tea-c", "drawer-none", "drawer-slip"]
     assert [c.id for c in CONDITIONS if c.undisturbed and c.suite != "rlbench"] == [
         "stack-p0", "pen-none", "book-none", "tea-none", "drawer-none", "stack-reversed"]
-    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten", "drawer-ten", "rope-half"]
+    assert list(SUITES["instructions"]) == ["stack-reversed", "stack-two", "sweep-ten", "drawer-ten", "rope-half",
+                                            "tap-sixty"]
     assert list(SUITES["rlbench"]) == ["rlb-open-drawer", "rlb-put-in-drawer", "rlb-screw-bulb", "rlb-turn-tap",
                                        "rlb-drag-stick", "rlb-sweep-to-dustpan"]
     assert METHODS == ("open-loop", "inner-monologue", "doremi", "cam")

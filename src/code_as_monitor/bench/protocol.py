@@ -86,6 +86,8 @@ CONDITIONS: tuple[Condition, ...] = (
               "Open drawer 10 cm, grasp slips off the handle (instruction)", suite="instructions"),
     Condition("rope-half", "rope-close-square", {"instruction": "close half of the opening with the rope"},
               "Close half of the rope square's opening (instruction)", suite="instructions"),
+    Condition("tap-sixty", "turn-tap", {"instruction": "turn the right tap 60 degrees"},
+              "Turn the right tap 60 degrees, noisy policy (instruction)", suite="instructions"),
     Condition("rlb-open-drawer", "open-drawer", {"noise": 1.0, "views": "rlbench"}, "Open drawer", undisturbed=True,
               suite="rlbench"),
     Condition("rlb-put-in-drawer", "put-in-drawer", {}, "Put in drawer", undisturbed=True, suite="rlbench"),
