@@ -5,10 +5,13 @@ Which masks build a part's element:
 - a part some view shows with at least ``min_pixels`` pixels: its part masks alone (falling back to the whole
   object in a view that sees the part too small would pull the element off the part);
 - a part no view shows that well (a rope's bead covers 4-11 pixels a view at 320x240): its part masks in the views
-  showing at least a quarter of ``min_pixels``, when those views show ``min_pixels`` together or bound every side of
-  the part (no side of its fitted box assumed: a small part seen whole). Such an element has few points and is weak
-  (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), but it is where the part is: the whole rope standing
-  in for a bead put it 2-14 cm off, at the rope's centre, and checks and trackers read it as the bead;
+  showing at least a quarter of ``min_pixels``, when those views show ``min_pixels`` together, or, for a point
+  element, when they bound every side of the part (no side of its fitted box assumed: a small part seen whole). Such
+  an element has few points and is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), but it is where
+  the part is: the whole rope standing in for a bead put it 2-14 cm off, at the rope's centre, and checks and
+  trackers read it as the bead. A few pixels give a centre, not a direction or a normal: a book's spine seen end-on
+  in the front view alone, 4-11 pixels with its sides "bounded" by the book's other parts, read 90 degrees off as a
+  line; lines and surfaces keep the whole object's stand-in there;
 - otherwise (no pixels of the part, or a few that leave sides unbounded: a sliver of a hidden part, such as a book's
   cover above the slot it stands in, 44 mm off when built from its 6 pixels) the whole object's masks stand in,
   and the element says so (``support.part_seen`` False).
@@ -25,7 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from code_as_monitor.core.elements import Element, ElementSpec
+from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
 from code_as_monitor.core.errors import CamError
 
 if TYPE_CHECKING:
@@ -44,8 +47,9 @@ def mask_element(eid: int, spec: ElementSpec, views: list[tuple], support: Suppo
         return _fit(eid, spec, views, counts, min_pixels, min_pixels, support, robots)
     few = max(1, min_pixels // 4)
     el = _fit(eid, spec, views, counts, few, min_pixels, support, robots)
+    whole = spec.kind is ElementKind.POINT and el is not None and el.support is not None and el.support.assumed == 0
     if el is not None and el.support is not None and el.support.part_seen and (
-            el.support.assumed == 0 or sum(pc for pc, _ in counts if pc >= few) >= min_pixels):
+            whole or sum(pc for pc, _ in counts if pc >= few) >= min_pixels):
         return el
     return _fit(eid, spec, views, counts, min_pixels, min_pixels, support, robots)
 
