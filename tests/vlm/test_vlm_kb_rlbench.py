@@ -80,6 +80,7 @@ def test_turn_tap_takes_its_side_from_the_instruction() -> None:
     ("rotate the left faucet about 30 deg", 30.0), ("turn the right tap 90 degrees", None),
     ("turn the left tap 45°", 45.0), ("turn the right tap a quarter turn", None),
     ("turn the left tap one quarter of a turn", None),
+    ("turn left tap 45 degrees", 45.0),  # before: "left" read as the verb "leave", refused
 ])
 def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float | None) -> None:
     """"Turn the right tap 60 degrees" asks for a 60-degree turn: the plan turns 60, its checks accept 45 to 75, and
@@ -109,6 +110,8 @@ def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float
     ("turn the left tap half a turn", "'half a turn'"),  # before: planned as a quarter-turn, "half a" unread
     ("turn the left tap a third of a turn", "30 to 90 degrees"),
     ("turn half of the left tap", "one handle"),
+    ("turn both left taps", "one handle"),  # before: planned as the left tap once "left" read as a side
+    ("turn all the taps", "one handle"),
 ])
 def test_an_angle_the_rules_cannot_honour_is_refused(text: str, why: str) -> None:
     objects = ["drawer_cabinet", "table"] if "drawer" in text else ["tap", "table"]

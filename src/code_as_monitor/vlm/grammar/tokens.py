@@ -111,8 +111,9 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
     """The token of one word given its neighbours."""
     if word in lx.ORDINALS and prev is not None and prev.kind in ("det", "colour"):
         return Token("ord", lx.ORDINALS[word], word)
-    if word in lx.SIDES and prev is not None and prev.kind in ("det", "colour"):
-        return Token("pos", word, word)  # "the left tap" (not the verb "leave")
+    if word in lx.SIDES and ((prev is not None and prev.kind in ("det", "colour", "quant"))
+                             or (nxt is not None and any(w in lx.NOUNS for w in lemmas(nxt)))):
+        return Token("pos", word, word)  # "the left tap", "turn left tap 45 degrees" (not the verb "leave")
     if word == "first" and prev is not None and prev.kind == "det":
         return Token("ord", 1, word)
     if (word,) in lx.SEPARATORS:

@@ -107,8 +107,9 @@ def understand(ins: Instruction, objects: list[str]) -> TapGoal | None:
             sides.add(q.position)
         elif q.position or q.ordinal:
             r.refuse(f"{p.text!r}: say which tap, the left or the right one")
-        if q.quantity is not None and q.quantity.value != 1:  # "both taps"; before, with a side it went unread
-            r.refuse(f"{q.quantity.text!r}: say which tap, the left or the right one (one handle is turned)")
+        qty = q.quantity  # "both taps", "half of the left tap"; before, with a side it went unread
+        if qty is not None and not (qty.kind == "number" and qty.value == 1 and qty.of_total in (None, 1)):
+            r.refuse(f"{qty.text!r}: say which tap, the left or the right one (one handle is turned)")
         if q.colour:
             r.refuse(f"{p.text!r}: name the tap by its side (left or right), not its colour")
         r.use(p.index)
