@@ -46,11 +46,11 @@ def mask_element(eid: int, spec: ElementSpec, views: list[tuple], support: Suppo
     if not spec.part or any(pc >= min_pixels for pc, _ in counts):
         return _fit(eid, spec, views, counts, min_pixels, min_pixels, support, robots)
     few = max(1, min_pixels // 4)
-    el = _fit(eid, spec, views, counts, few, min_pixels, support, robots)
-    whole = spec.kind is ElementKind.POINT and el is not None and el.support is not None and el.support.assumed == 0
-    if el is not None and el.support is not None and el.support.part_seen and (
-            whole or sum(pc for pc, _ in counts if pc >= few) >= min_pixels):
-        return el
+    enough = sum(pc for pc, _ in counts if pc >= few) >= min_pixels
+    if enough or spec.kind is ElementKind.POINT:  # a line or surface from too few pixels is not tried at all
+        el = _fit(eid, spec, views, counts, few, min_pixels, support, robots)
+        if el is not None and el.support is not None and el.support.part_seen and (enough or el.support.assumed == 0):
+            return el
     return _fit(eid, spec, views, counts, min_pixels, min_pixels, support, robots)
 
 
