@@ -127,3 +127,37 @@ def _run_on(src: str, E: dict, H: dict, ns: dict) -> tuple:
     ns.update({"np": np, "math": math, **MONITOR_HELPERS})
     exec(compile(src, "<kb program>", "exec"), ns)
     return ns["check_rope_covers_opening"](E, _H(H), 1.0)
+
+
+def _laid_rope(cfg, outward: float, shift: float = 0.0) -> dict:
+    """The rope as the simulator's policy lays it (``rope_targets``: beads 85 % of their spacing apart along the
+    opening, centred on it, ``outward`` metres outside it), every bead moved ``shift`` metres along the opening.
+    Opening along y at x = 0.5, outside is +x."""
+    pts = {("square", "corner_0"): [0.5, 0.1, 0.0075], ("square", "corner_3"): [0.5, -0.1, 0.0075]}
+    n = cfg.n_beads
+    y = (np.arange(n) - (n - 1) / 2) * cfg.spacing * 0.85 + shift
+    for i in range(n):
+        pts[("rope", f"bead_{i:02d}")] = [0.5 + outward, y[i], cfg.bead_radius]
+    return pts
+
+
+def _rope_check(make_elements, run_program, before: dict, now: dict, dt: float) -> bool:
+    gen, coder = gen_coder()
+    sg = gen.next_subgoal(ROPE, {}, infer_objects(ROPE))
+    src, _ = program_for(coder, sg, make_elements, now)
+    start, end = make_elements(sg, before), make_elements(sg, now)
+    H = [np.stack([a.points, b.points]) for a, b in zip(start, end)]
+    return run_program(src, end, H, t=dt)["rope_covers_opening"][0]
+
+
+def test_a_laid_rope_read_a_few_mm_outward_is_enclosed(make_elements, run_program):
+    """The policy lays the beads 15 mm outside the opening (every sample within 16.6 mm of a bead, inside the task's
+    25 mm by 8 mm or more). Read 4 mm further out, as a settled bead or an estimate a few mm off may be (every sample
+    within 20.3 mm, still 4.7 mm inside the task's tolerance), the check reads it enclosed; 24 mm out (samples up
+    to 25.1 mm from a bead: the task's own borderline, 91 %) it does not."""
+    cfg, opening_coverage = _task()
+    near, far = _laid_rope(cfg, 0.019), _laid_rope(cfg, 0.024)
+    assert _task_coverage(near, cfg, opening_coverage) == 1.0
+    assert _rope_check(make_elements, run_program, near, near, 1.0)
+    assert not _rope_check(make_elements, run_program, far, far, 1.0)
+

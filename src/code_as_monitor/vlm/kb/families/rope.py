@@ -42,10 +42,15 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # held over the last `stable_s` seconds: a rope still being dragged encloses the opening for an
     # instant and opens again, so a halt on one frame stops the robot in a state that does not last.
     # `margin`: a sample counts as covered only within `max_gap - margin`, because the elements are
-    # estimates (bead centres a few mm off even on oracle tracking; the element-accuracy target allows
-    # 8 mm) and one sample flips 90 % to 82 %: a completion read on a borderline frame stopped ropes
-    # the task judged open (seed 27459815: 91 % read from the elements, 82 % true, 73 % after the halt).
-    "rope_cover": {"max_gap": 0.025, "margin": 0.006, "samples": 11, "min_fraction": 0.9, "max_z": 0.026,
+    # estimates: 3 mm, the point accuracy the perception is held to (issue #12's median target; on the
+    # rope, beads are painted 1.9 mm median off their centres, and `depth` tracked them 1.3 mm median,
+    # 3.5 mm p90, identity-free, in one probed episode). It was 6 mm (for the 8 mm worst case the
+    # element target allows), which read most enclosed ropes as open: the policy lays the beads 15 mm
+    # outside the opening, 15.0-16.6 mm from its samples, leaving 2.4-4.0 mm of a 19 mm reach for a bead
+    # that settles or is read a little outward (in three probed episodes, of the 183-238 frames the task
+    # called enclosed only 37-59 were so at 19 mm even from the true beads). The price: a rope halted at
+    # the task's own borderline (91 %) may still relax open after the halt.
+    "rope_cover": {"max_gap": 0.025, "margin": 0.003, "samples": 11, "min_fraction": 0.9, "max_z": 0.026,
                    "stable_s": 0.3},
 }
 
