@@ -16,7 +16,8 @@ pytest.importorskip("pybullet")
 def test_tiny_ablation_slice_runs_resumes_and_reports(tmp_path, capsys):
     res = tmp_path / "ablation.jsonl"
     args = ["bench", "--suite", "ablation", "--conditions", "book-none", "--methods", "cam-cp-off,cam-proactive-only",
-            "--episodes", "1", "--workers", "1", "--no-videos", "--no-counterfactual", "--results", str(res)]
+            "--episodes", "1", "--workers", "1", "--no-videos", "--no-counterfactual", "--tracker", "sim",
+            "--results", str(res)]
     assert main(args) == 0
     eps = [json.loads(x) for x in res.read_text().splitlines() if '"kind": "episode"' in x or '"kind":"episode"' in x]
     assert sorted(r["method"] for r in eps) == ["cam-cp-off", "cam-proactive-only"]

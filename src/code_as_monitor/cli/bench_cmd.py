@@ -64,8 +64,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_server_options(p)
     p.add_argument("--doremi-k", type=v.number(0.0, 3600.0, lo_open=True), default=1.0,
                    help="seconds between DoReMi's VQA checks (default 1)")
-    p.add_argument("--tracker", default="sim", help="CaM tracker: sim (oracle, default), lk, depth; recorded in "
-                   "every result and the report")
+    p.add_argument("--tracker", default="depth", help="CaM tracker: depth (no simulator pose, default), sim (the "
+                   "oracle: the simulator's poses), lk; recorded in every result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--cameras", default="task",
                    help="the camera set every method sees: task (each task's own views, default), front-top (the "

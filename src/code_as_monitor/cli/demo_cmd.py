@@ -2,7 +2,8 @@
 
 stack-in-order (red at the bottom, then green, then blue) with the paper's drop disturbance p = 0.3,
 planned and coded by the kb backend (a rule-based stand-in for a VLM, not a VLM), painted from the
-simulator's ground-truth masks and tracked with OpenCV Lucas-Kanade. Prints a live log and writes
+simulator's ground-truth masks and tracked in 3-D by the `depth` tracker (each object's points registered to
+the depth images; no simulator pose). Prints a live log and writes
 runs/<id>/ (episode.mp4, prompts/, programs/, events.jsonl, ground_truth.jsonl, summary.json).
 Any option of `cam run` can be changed, e.g. `cam demo --tracker sim` or `cam demo --seed 4`.
 """

@@ -60,9 +60,9 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     add_server_options(p)
     p.add_argument("--segmenter", default=segmenter,
                    help=f"segmenter: sim (ground-truth masks), color, http (default {segmenter})")
-    p.add_argument("--tracker", default="lk",
-                   help="tracker: lk (OpenCV Lucas-Kanade, default), depth (depth registration with small_gicp), "
-                        "sim (oracle)")
+    p.add_argument("--tracker", default="depth",
+                   help="tracker: depth (each object's points registered to the depth images with small_gicp; "
+                        "default), lk (OpenCV Lucas-Kanade), sim (the oracle: the simulator's poses)")
     p.add_argument("--camera-hz", type=v.number(*RATE_HZ_RANGE), default=10.0,
                    help="monitoring/camera rate, Hz (default 10; the simulator renders at most 40)")
     p.add_argument("--no-video", action="store_true", help="do not write episode.mp4")
