@@ -33,7 +33,8 @@ def test_run_and_demo_accept_the_depth_tracker(argv):
 def test_run_demo_and_bench_default_to_the_depth_tracker():
     """Issue #12 §4: once `depth` is within 5 points of the oracle on every row, it is the default perception of
     `cam demo`, `cam run` and `cam bench` (the oracle stays one flag away: `--tracker sim`)."""
-    assert run_cmd.config_from_args(_parser().parse_args(["run", "stack-in-order"]), "stack-in-order").tracker == "depth"
+    run = _parser().parse_args(["run", "stack-in-order"])
+    assert run_cmd.config_from_args(run, "stack-in-order").tracker == "depth"
     demo = _parser().parse_args(["demo"])
     assert run_cmd.config_from_args(demo, demo_cmd.DEMO_TASK).tracker == "depth"
     assert _parser().parse_args(["bench"]).tracker == "depth"
