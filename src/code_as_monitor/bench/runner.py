@@ -92,10 +92,14 @@ def _check_options(lines: list[dict[str, Any]], opts: dict[str, Any]) -> None:
     counts as its default there (a file from before ``cameras`` ran on each task's own views)."""
     defaults = EpisodeOptions().to_dict()
     for r in lines:
-        if r.get("kind") == "bench_start" and {**defaults, **(r.get("options") or {})} != opts:
-            raise ConfigError(
-                f"the results file was made with other method options ({r.get('options')}); use another "
-                f"--results file or the same options (now {opts})")
+        made = {**defaults, **(r.get("options") or {})}
+        if r.get("kind") == "bench_start" and made != opts:
+            differ = "; ".join(f"{k}: {made.get(k)!r} in the file, {opts.get(k)!r} now"
+                               for k in sorted(set(made) | set(opts)) if made.get(k) != opts.get(k))
+            hint = (f" (add --tracker {made.get('tracker')}: `cam bench` tracked with the oracle `sim` by default "
+                    "until 2026-11-29, with `depth` since)" if made.get("tracker") != opts.get("tracker") else "")
+            raise ConfigError(f"the results file was made with other method options ({differ}); use another "
+                              f"--results file or the same options{hint}")
 
 
 def repair_tail(path: str | Path) -> bool:
