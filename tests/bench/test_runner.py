@@ -82,7 +82,7 @@ def test_rerun_skips_everything_and_other_options_are_refused(tmp_path):
     assert "doremi_k_s: 1.0 in the file, 2.0 now" in str(e.value) and "tracker" not in str(e.value)
     other_tracker = BenchSpec(methods=["open-loop"], conditions=["stack-p0"], seeds=1, episodes=1,
                               options={"tracker": "depth"})
-    with pytest.raises(ConfigError, match="tracker: 'sim' in the file, 'depth' now.*add --tracker sim"):
+    with pytest.raises(ConfigError, match=r"tracker: 'sim' in the file, 'depth' now.*add --tracker sim"):
         run_bench(other_tracker, results, LocalExecutorConfig(workers=1))
     rec = _episodes(results)[0]
     for key in ("condition", "method", "seed", "episode", "episode_seed", "success", "sim_time_s", "wall_time_s",
