@@ -18,6 +18,8 @@ from code_as_monitor.vlm.grammar import parse
     ("turn the left tap half a turn", 180.0, "angle", "half a turn"),
     ("turn the left tap a third of a turn", 120.0, "angle", "a third of a turn"),
     ("turn the left tap one quarter of a turn", 90.0, "angle", "one quarter of a turn"),
+    ("rotate the left tap a quarter", 90.0, "angle", "a quarter turn"),  # before: refused, a quantity on the tap
+    ("twist the right faucet a third", 120.0, "angle", "a third turn"),
 ])
 def test_a_measure_is_read_with_its_kind_and_words(text: str, value: float, kind: str, words: str) -> None:
     (m,) = parse(text).measures
@@ -30,7 +32,8 @@ def test_a_measure_is_read_with_its_kind_and_words(text: str, value: float, kind
 
 
 @pytest.mark.parametrize("text", ["turn the left tap", "turn the tap, then turn it back",
-                                  "sweep a third of the blocks into the zone"])
+                                  "sweep a third of the blocks into the zone", "turn half of the taps",
+                                  "sweep the blocks into the zone half"])
 def test_turn_as_a_verb_and_fractions_of_things_are_not_angles(text: str) -> None:
     ins = parse(text)
     assert not ins.measures and ins.verbs[0] in ("turn", "sweep")

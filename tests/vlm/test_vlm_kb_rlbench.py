@@ -81,6 +81,7 @@ def test_turn_tap_takes_its_side_from_the_instruction() -> None:
     ("turn the left tap 45°", 45.0), ("turn the right tap a quarter turn", None),
     ("turn the left tap one quarter of a turn", None),
     ("turn left tap 45 degrees", 45.0),  # before: "left" read as the verb "leave", refused
+    ("rotate the left tap a quarter", None),  # before: refused, "a quarter" a quantity on the tap
 ])
 def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float | None) -> None:
     """"Turn the right tap 60 degrees" asks for a 60-degree turn: the plan turns 60, its checks accept 45 to 75, and
@@ -109,6 +110,7 @@ def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float
     ("open the drawer 45 degrees", "by a length"),
     ("turn the left tap half a turn", "'half a turn'"),  # before: planned as a quarter-turn, "half a" unread
     ("turn the left tap a third of a turn", "30 to 90 degrees"),
+    ("turn the right tap half", "30 to 90 degrees"),
     ("turn half of the left tap", "one handle"),
     ("turn both left taps", "one handle"),  # before: planned as the left tap once "left" read as a side
     ("turn all the taps", "one handle"),

@@ -187,7 +187,17 @@ def tokenize(text: str) -> list[Token]:
             continue
         out.append(_single(words[i], prev, words[i + 1] if i + 1 < len(words) else None))
         i += 1
+    if _bare_turn_fraction(out):
+        out.append(Token("noun", "turn", "turn"))  # "rotate the left tap a quarter": a quarter (of a) turn
     return _fix_numbers(out)
+
+
+def _bare_turn_fraction(out: list[Token]) -> bool:
+    """Whether the instruction turns something by a bare fraction at its end ("rotate the left tap a quarter",
+    "turn the right tap half"): a verb of turning, then the thing turned, then a fraction and nothing after. A
+    fraction of something ("turn half of the taps") or after another verb ("open the drawer half") is not one."""
+    return (len(out) >= 3 and out[-1].kind == "frac" and out[-2].kind == "noun"
+            and any(t.kind == "verb" and t.value == "turn" for t in out[:-2]))
 
 
 def _fix_numbers(tokens: list[Token]) -> list[Token]:
