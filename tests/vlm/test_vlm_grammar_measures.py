@@ -20,6 +20,7 @@ from code_as_monitor.vlm.grammar import parse
     ("turn the left tap one quarter of a turn", 90.0, "angle", "one quarter of a turn"),
     ("rotate the left tap a quarter", 90.0, "angle", "a quarter turn"),  # before: refused, a quantity on the tap
     ("twist the right faucet a third", 120.0, "angle", "a third turn"),
+    ("rotate the left tap three quarters", 270.0, "angle", "three quarters turn"),
 ])
 def test_a_measure_is_read_with_its_kind_and_words(text: str, value: float, kind: str, words: str) -> None:
     (m,) = parse(text).measures

@@ -111,6 +111,7 @@ def test_a_turn_angle_is_read_into_the_plan_and_the_task(text: str, angle: float
     ("turn the left tap half a turn", "'half a turn'"),  # before: planned as a quarter-turn, "half a" unread
     ("turn the left tap a third of a turn", "30 to 90 degrees"),
     ("turn the right tap half", "30 to 90 degrees"),
+    ("rotate the left tap three quarters", "30 to 90 degrees"),  # before: "say which tap"
     ("turn half of the left tap", "one handle"),
     ("turn both left taps", "one handle"),  # before: planned as the left tap once "left" read as a side
     ("turn all the taps", "one handle"),

@@ -196,8 +196,11 @@ def _bare_turn_fraction(out: list[Token]) -> bool:
     """Whether the instruction turns something by a bare fraction at its end ("rotate the left tap a quarter",
     "turn the right tap half"): a verb of turning, then the thing turned, then a fraction and nothing after. A
     fraction of something ("turn half of the taps") or after another verb ("open the drawer half") is not one."""
-    return (len(out) >= 3 and out[-1].kind == "frac" and out[-2].kind == "noun"
-            and any(t.kind == "verb" and t.value == "turn" for t in out[:-2]))
+    k = len(out) - 2  # the thing turned, before the fraction ("a quarter") or its count ("three quarters")
+    if k >= 0 and out[k].kind == "num" and out[-1].kind == "frac" and out[-1].text.endswith("s"):
+        k -= 1
+    return (k >= 1 and out[-1].kind == "frac" and out[k].kind == "noun"
+            and any(t.kind == "verb" and t.value == "turn" for t in out[:k]))
 
 
 def _fix_numbers(tokens: list[Token]) -> list[Token]:
