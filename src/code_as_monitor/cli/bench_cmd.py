@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.cli import validate as v
-from code_as_monitor.cli.run_cmd import add_server_options, server_options
+from code_as_monitor.cli.run_cmd import DEFAULT_TRACKER, add_server_options, server_options
 from code_as_monitor.core.errors import ConfigError
 
 RESULTS_DIR = Path("runs/bench")
@@ -64,8 +64,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_server_options(p)
     p.add_argument("--doremi-k", type=v.number(0.0, 3600.0, lo_open=True), default=1.0,
                    help="seconds between DoReMi's VQA checks (default 1)")
-    p.add_argument("--tracker", default="depth", help="CaM tracker: depth (no simulator pose, default), sim (the "
-                   "oracle: the simulator's poses), lk; recorded in every result and the report")
+    p.add_argument("--tracker", default=DEFAULT_TRACKER, help="CaM tracker: depth (no simulator pose, default), sim "
+                   "(the oracle: the simulator's poses), lk; recorded in every result and the report")
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--cameras", default="task",
                    help="the camera set every method sees: task (each task's own views, default), front-top (the "

@@ -28,6 +28,9 @@ from code_as_monitor.cli import validate as v
 from code_as_monitor.core.checks import DEADLINE_S_RANGE, IMAGE_SIDE_RANGE, RATE_HZ_RANGE
 from code_as_monitor.core.errors import ConfigError
 
+DEFAULT_TRACKER = "depth"
+"""The tracker of ``cam run`` / ``cam demo`` / ``cam monitor`` / ``cam bench`` when none is named (issue #12 §4)."""
+
 
 def add_common(p: argparse.ArgumentParser) -> None:
     """Options shared by ``cam run``, ``cam demo`` and ``cam record``."""
@@ -60,7 +63,7 @@ def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> N
     add_server_options(p)
     p.add_argument("--segmenter", default=segmenter,
                    help=f"segmenter: sim (ground-truth masks), color, http (default {segmenter})")
-    p.add_argument("--tracker", default="depth",
+    p.add_argument("--tracker", default=DEFAULT_TRACKER,
                    help="tracker: depth (each object's points registered to the depth images with small_gicp; "
                         "default), lk (OpenCV Lucas-Kanade), sim (the oracle: the simulator's poses)")
     p.add_argument("--camera-hz", type=v.number(*RATE_HZ_RANGE), default=10.0,

@@ -79,6 +79,11 @@ class TapGoal:
     other: str
     angle: float = TURN_DEG
 
+    @property
+    def quarter_turn(self) -> bool:
+        """Whether the turn is the default quarter-turn (no angle asked for: no upper bound, no task parameter)."""
+        return abs(self.angle - TURN_DEG) < 1e-9
+
 
 VERBS = ("turn", "open", "grasp")
 MODIFIERS = ("open", "on", "fully")
@@ -179,7 +184,7 @@ def turn(g: TapGoal) -> list[dict[str, Any]]:
     the angle asked for (most of a quarter-turn by default) and is released."""
     lv, ot, tu, fr = _thr("levered"), _thr("otherstill"), _thr("turned"), _thr("lever_freed")
     least = g.angle - TURN_TOL_DEG
-    if abs(g.angle - TURN_DEG) > 1e-9:
+    if not g.quarter_turn:
         lv["min_turn"] = tu["min_turn"] = round(math.radians(least), 4)
         tu["max_turn"] = round(math.radians(g.angle + TURN_TOL_DEG), 4)
     band = f"at least {least:.0f} degrees" if "max_turn" not in tu else \
@@ -292,7 +297,7 @@ def next_subgoal(goal: TapGoal, previous: dict[str, Any] | None, feedback: str |
     if not previous or skill not in ("grasp", "turn"):
         if previous and previous.get("done"):
             return done(f"the {side} tap is open")
-        how = "a quarter-turn" if abs(goal.angle - TURN_DEG) < 1e-9 else f"{goal.angle:g} degrees"
+        how = "a quarter-turn" if goal.quarter_turn else f"{goal.angle:g} degrees"
         g["reasoning"] = f"grasp the {side} tap's lever, then turn it outwards {how}"
         return g
     kind = failed_kind(feedback)
@@ -317,7 +322,7 @@ FAMILY = TaskFamily(
     next_subgoal=next_subgoal,
     scene=scene,
     task_params=lambda goal: {"side": goal.part.split("_")[0],
-                              **({} if abs(goal.angle - TURN_DEG) < 1e-9 else {"angle": goal.angle})},
+                              **({} if goal.quarter_turn else {"angle": goal.angle})},
     thresholds=THRESHOLDS,
     templates={"leverstill": leverstill, "otherstill": otherstill, "levergrip": levergrip, "levered": levered,
                "turned": turned, "leverfreed": leverfreed},
