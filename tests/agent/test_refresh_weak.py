@@ -133,3 +133,62 @@ def test_a_carried_part_is_judged_where_tracked_not_on_its_whole_objects_stand_i
     ep = agent.run("insert it", w, MovePolicy(w))
     assert painter.repaints >= 1  # the moved element was re-painted at the final check ...
     assert ep.subgoals[0].outcome == "success"  # ... and judged where tracked (centred), not 1.7 cm off
+
+
+
+class TowerPainter(StartPainter):
+    """Paints the carried cube (id 0) at x = 0.1 and the block (id 1) at rest 1.7 cm off x = 0 at the subgoal start;
+    re-paints each where it is (cube x = 0, block x = 5 mm)."""
+
+    def paint(self, obs, subgoal, known=None):
+        res = super().paint(obs, subgoal, known)
+        for e in res.elements:
+            e.points = np.array([[0.1 if e.id == 0 else 0.017, 0.0, 0.02]])
+        return res
+
+    def build_element(self, obs, i, spec):
+        el = super().build_element(obs, i, spec)
+        el.points = np.array([[0.0 if i == 0 else 0.005, 0.0, 0.02]])
+        return el
+
+
+class NudgingTracker(RestingTracker):
+    """The cube is carried to x = 0 (moved: re-painted for the final check); the block is nudged 1.2 cm toward x = 0
+    (less than ``refresh_motion``: at rest). Every step reports the given support for the block (observations behind
+    its position) and its staleness."""
+
+    def __init__(self, support: float | None, stale: bool = False) -> None:
+        super().__init__()
+        self.support, self.stale = support, stale
+
+    def step(self, obs):
+        from code_as_monitor.perception.trackers.base import TrackResult
+
+        self.points = {i: np.array([[0.0 if i == 0 else 0.005, p[0, 1], p[0, 2]]]) for i, p in self.points.items()}
+        support = {0: float("inf")} if self.support is None else {0: float("inf"), 1: self.support}
+        return TrackResult(obs.t, {i: p.copy() for i, p in self.points.items()},
+                           {i: np.full(1, self.stale and i == 1) for i in self.points}, {i: 1 for i in self.points},
+                           support)
+
+
+@pytest.mark.parametrize(("support", "stale", "outcome"), [
+    (float("inf"), False, "success"),  # exact motion (the oracle): where it was carried
+    (130.0, False, "success"),  # a registration that saw as many points as the paint
+    (3.0, False, "reactive_failure"),  # a point tracker's few anchors: the start measurement
+    (None, False, "reactive_failure"),  # no support reported: the start measurement
+    (float("inf"), True, "reactive_failure"),  # stale at the final check: the start measurement
+], ids=["exact", "registered", "few-anchors", "unreported", "stale"])
+def test_a_nudged_element_at_rest_is_judged_where_a_registering_tracker_carried_it(support, stale, outcome) -> None:
+    """The cube set down on the block is re-painted for the final check; the block it nudged by 1.2 cm (less than
+    ``refresh_motion``, so "at rest") is judged at its tracked position when the tracker's weakest frame saw at least
+    half the measurement's unhidden points, otherwise at its start measurement, 1.7 cm off (stack p = 0.3,
+    1607472740 with ``depth``: the green block nudged by the blue one landing on it)."""
+    w = World()
+    cube, block = ElementSpec("cube", "cube", "", "point"), ElementSpec("block", "block", "", "point")
+    sg = Subgoal("set the cube on the block", [Constraint("on", "the cube is on the block", Phase.UPON, [cube, block])],
+                 Action("move", {"obj": "arm"}))
+    rules = {"on": lambda P, t: abs(P[0][0, 0] - P[1][0, 0]) <= 0.01}
+    agent = Agent(Planner([sg]), Coder(), TowerPainter(STRONG, STRONG), NudgingTracker(support, stale),
+                  Runtime(rules), History, AgentConfig(max_replans=0))
+    ep = agent.run("stack them", w, MovePolicy(w, speed=0.0, stop_at=0.0))
+    assert ep.subgoals[0].outcome == outcome
