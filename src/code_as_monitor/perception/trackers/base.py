@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from code_as_monitor.core.elements import Element
-from code_as_monitor.core.errors import ConfigError, PerceptionError
+from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.core.registry import Choice, build_lazily, check_positive
 
@@ -169,6 +169,11 @@ class DepthTrackerConfig(TrackerConfig):
         box_margin: metres; ... and to their world bounding box grown by this.
         depth_tol: metres; a model point is seen when the depth reading at its pixel is within this of its
             depth, contradicted when the reading lies further than this behind it.
+        support_chroma: a model point seen at its depth whose pixel's chromaticity ((R, G) / (R + G + B)) is
+            further than this from the point's own when painted is *recoloured*: another object's surface may be
+            there, and the search ranks poses by the points seen in their own colour
+            (:func:`.depth_body.support`, :func:`.depth_search.score`; 0 disables the colour test).
+        chroma_min_sum: pixels darker than this (R + G + B, 0-765) have no reliable colour: the test is skipped.
         min_seen: a pose needs at least this many model points seen ...
         min_seen_frac: ... and at least this fraction of the points seen when the body was painted ...
         max_contradiction: ... and at most this fraction of its informative points contradicted;
@@ -225,6 +230,8 @@ class DepthTrackerConfig(TrackerConfig):
     margin_px: int = 8
     box_margin: float = 0.025
     depth_tol: float = 0.005
+    support_chroma: float = 0.15
+    chroma_min_sum: float = 60.0
     min_seen: int = 15
     min_seen_frac: float = 0.1
     max_contradiction: float = 0.15
@@ -278,7 +285,7 @@ class DepthTrackerConfig(TrackerConfig):
                               f"depth.detect_gate ({self.detect_gate!r})")
         for f in ("related_parts", "min_information", "margin_px", "box_margin", "plane_band", "tool_radius",
                   "tool_margin", "held_distance", "moving", "gravity", "detect_points", "detect_extent",
-                  "detect_chain", "detect_chroma"):
+                  "detect_chain", "detect_chroma", "support_chroma", "chroma_min_sum"):
             check_positive("depth", f, getattr(self, f), allow_zero=True)
 
 
@@ -330,61 +337,6 @@ class Tracker(ABC):
     @abstractmethod
     def step(self, obs: Observation) -> TrackResult:
         """Advance to ``obs``; return every element's current points, stale flags and view counts."""
-
-
-class KinematicAnchor:
-    """Moves an end-effector element with forward kinematics.
-
-    At reset the element's points are stored relative to the anchor: the named point
-    ``robot.ee_points[part]`` when present (pure translation), else the ``ee_pose`` frame.
-    """
-
-    def __init__(self, obs: Observation, element: Element) -> None:
-        if obs.robot is None:
-            raise PerceptionError(
-                f"element {element.id} ({element.name!r}) belongs to the end-effector but the observation "
-                "has no robot state"
-            )
-        self.part = element.owner[1] or "tip"
-        robot = obs.robot
-        if self.part in robot.ee_points:
-            self.mode = "point"
-            self.local = element.points - np.asarray(robot.ee_points[self.part], dtype=np.float64).reshape(1, 3)
-        else:
-            self.mode = "pose"
-            T = np.asarray(robot.ee_pose, dtype=np.float64)
-            self.local = (element.points - T[:3, 3]) @ T[:3, :3]
-        self.name = element.name
-
-    def points(self, obs: Observation) -> np.ndarray:
-        """(k, 3) world points at ``obs``."""
-        robot = obs.robot
-        if robot is None:
-            raise PerceptionError(f"element {self.name!r} follows the robot but the observation has no robot state")
-        if self.mode == "point":
-            if self.part not in robot.ee_points:
-                raise PerceptionError(f"robot state lost its end-effector point {self.part!r}")
-            return self.local + np.asarray(robot.ee_points[self.part], dtype=np.float64).reshape(1, 3)
-        T = np.asarray(robot.ee_pose, dtype=np.float64)
-        return self.local @ T[:3, :3].T + T[:3, 3]
-
-    def observe(self, obs: Observation) -> tuple[np.ndarray, np.ndarray, int]:
-        """(points (k, 3) at ``obs``, stale flags (k,) all False, number of views they project into): an
-        anchored element is never stale, the robot state places it."""
-        p = self.points(obs)
-        return p, np.zeros(len(p), dtype=bool), views_containing(obs, p)
-
-
-def views_containing(obs: Observation, points: np.ndarray) -> int:
-    """Number of views of ``obs`` into whose image at least one of ``points`` (k, 3) projects."""
-    n = 0
-    for view in obs.views.values():
-        cam = view.camera
-        uv, z = cam.project(points)
-        u, v = uv[:, 0], uv[:, 1]
-        inside = (z > 0) & (u >= 0) & (u <= cam.width - 1) & (v >= 0) & (v <= cam.height - 1)
-        n += bool(inside.any())
-    return n
 
 
 _IMPLEMENTATIONS: dict[str, str] = {

@@ -48,7 +48,7 @@ associated to the small bodies by position (:mod:`code_as_monitor.perception.tra
 part does not make its whole object a body. Support (``TrackResult.support``): the model points a registered
 body's pose saw, summed over the views; small bodies report none.
 
-Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). An element
+Elements owned by the robot follow forward kinematics (:class:`.anchor.KinematicAnchor`). An element
 without a cloud (not built from masks) cannot be registered: it is stale until the hook re-paints it.
 A view whose depth or camera is unusable is skipped for the frame with a logged warning.
 """
@@ -63,13 +63,9 @@ import numpy as np
 from code_as_monitor.core.elements import Element, ElementSpec, stood_in
 from code_as_monitor.core.errors import CamError, PerceptionError
 from code_as_monitor.core.observation import Observation
-from code_as_monitor.perception.trackers.base import (
-    DepthTrackerConfig,
-    KinematicAnchor,
-    Tracker,
-    TrackResult,
-)
-from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, support
+from code_as_monitor.perception.trackers.anchor import KinematicAnchor
+from code_as_monitor.perception.trackers.base import DepthTrackerConfig, Tracker, TrackResult
+from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, model_chroma, support
 from code_as_monitor.perception.trackers.depth_claims import keep_on_object, resolve_overlaps
 from code_as_monitor.perception.trackers.depth_detect import (
     SmallBody,
@@ -260,6 +256,9 @@ class DepthTracker(Tracker):
             log.info("body %s/%s cannot be tracked: %s", owner[0], owner[1] or "*", exc)
             return BodyState(owner, None, parent, lost=True)
         seen = support(model.points, views, c.depth_tol, c.max_depth)
+        if c.support_chroma > 0:  # the colours its points are seen in now, at paint time (depth_body.model_chroma)
+            model.chroma = model_chroma(model.points, views, c.depth_tol, c.max_depth, c.chroma_min_sum,
+                                       c.support_chroma)
         return BodyState(owner, model, parent, ref_seen=max(seen.seen, c.min_seen), seen_views=seen.views,
                          painted=self._frame, small=is_small(model.points, c))
 

@@ -16,6 +16,16 @@ Where the depth reading agrees with the point's depth (within ``tol``) the point
 camera sees further than the point (the reading lies behind it) the pose is *contradicted* there;
 where something is in front it is *occluded* (no evidence either way), and pixels without a reading
 tell nothing. A pose is accepted when enough points are seen and few are contradicted.
+
+Colour (:func:`model_chroma`, the ``chroma`` argument of :func:`support`): a model point remembers the chromaticity
+(R, G) / (R + G + B) of the pixels that saw it when the body was painted; a seen point whose pixel now has another
+colour (further than ``max_chroma``) is also counted *recoloured*: another object's surface may lie where the pose
+puts the body's (a block in a tower, registered half onto the block that has just landed on it, sees its front face
+continued by the upper block's: the same depth, another colour). Recoloured points still count as seen, since a
+surface turned to the light changes its colour too (the renderer's highlight on a book's spine turned upright);
+the search ranks poses by the points seen in their own colour (:func:`~.depth_search.score`). A point on a colour
+edge, or that the views saw in different colours, a pixel darker than ``min_sum`` (R + G + B, 0-765), and a point no
+view saw at paint time have no colour.
 """
 
 from __future__ import annotations
@@ -36,6 +46,7 @@ class Support:
     seen: int = 0
     contradicted: int = 0
     occluded: int = 0
+    recoloured: int = 0  # of the seen points, those in another colour than when painted (model_chroma)
     views: int = 0  # views with at least one seen point
     residual: float = 0.0  # metres, mean |depth reading - point depth| over the seen points
 
@@ -105,6 +116,7 @@ class RigidBody:
         self.radius = float(np.linalg.norm(hi - lo) / 2)
         self.centre = (lo + hi) / 2
         self.box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        self.chroma: np.ndarray | None = None  # (M, 2) the points' chromaticity when painted (model_chroma)
 
 
 def register(body: RigidBody, source: object, T_init: np.ndarray, kind: str, max_corr: Sequence[float],
@@ -147,9 +159,67 @@ def register(body: RigidBody, source: object, T_init: np.ndarray, kind: str, max
     return T, inliers
 
 
-def support(points: np.ndarray, views: Sequence[ViewData], tol: float, max_depth: float) -> Support:
-    """Projective evidence for world points ``points`` (N, 3) in every view (see the module docstring)."""
+def pixel_chroma(view: ViewData, vi: np.ndarray, ui: np.ndarray, min_sum: float) -> np.ndarray:
+    """(N, 2) chromaticity (R, G) / (R + G + B) of ``view``'s pixels (row ``vi``, column ``ui``); NaN where the view
+    has no colour image or the pixel is darker than ``min_sum`` (R + G + B, 0-765)."""
+    out = np.full((len(vi), 2), np.nan)
+    if view.rgb is None or not len(vi):
+        return out
+    px = view.rgb[vi, ui].astype(np.float64)
+    total = px.sum(axis=1)
+    ok = total >= max(min_sum, 1e-6)
+    out[ok] = px[ok, :2] / total[ok, None]
+    return out
+
+
+def model_chroma(points: np.ndarray, views: Sequence[ViewData], tol: float, max_depth: float,
+                 min_sum: float, max_chroma: float) -> np.ndarray:
+    """(N, 2) the chromaticity of world points ``points`` (N, 3) as the views see them now (the mean over the views
+    whose depth reading at the point's pixel agrees with it, within ``tol``); NaN where no view sees it in colour,
+    where the pixel lies on a colour edge (a pixel of its 3 x 3 neighbourhood further than ``max_chroma`` from it:
+    the next frame may round the point onto the other side), and where two views disagree by more than that."""
+    lo = np.full((len(points), 2), np.inf)
+    hi = np.full((len(points), 2), -np.inf)
+    acc = np.zeros((len(points), 2))
+    n = np.zeros(len(points))
+    for view in views:
+        u, v, z = view.project(points)
+        u, v = np.rint(u), np.rint(v)
+        inside = (z > 0) & (u >= 1) & (u <= view.width - 2) & (v >= 1) & (v <= view.height - 2)
+        idx = np.flatnonzero(inside)
+        if not len(idx):
+            continue
+        vi, ui = v[idx].astype(np.intp), u[idx].astype(np.intp)
+        d = view.depth[vi, ui]
+        seen = (d > 0) & (d <= max_depth) & (np.abs(d - z[idx]) <= tol)
+        vi, ui, rows = vi[seen], ui[seen], idx[seen]
+        ch = pixel_chroma(view, vi, ui, min_sum)
+        ok = np.isfinite(ch).all(axis=1)
+        for dv in (-1, 0, 1):
+            for du in (-1, 0, 1):
+                if dv or du:
+                    nb = pixel_chroma(view, vi + dv, ui + du, min_sum)
+                    ok &= ~(np.linalg.norm(nb - ch, axis=1) > max_chroma)  # a dark neighbour tells nothing
+        rows, ch = rows[ok], ch[ok]
+        acc[rows] += ch
+        n[rows] += 1
+        lo[rows] = np.minimum(lo[rows], ch)
+        hi[rows] = np.maximum(hi[rows], ch)
+    out = np.full((len(points), 2), np.nan)
+    known = (n > 0) & ~(np.linalg.norm(hi - lo, axis=1) > max_chroma)
+    out[known] = acc[known] / n[known, None]
+    return out
+
+
+def support(points: np.ndarray, views: Sequence[ViewData], tol: float, max_depth: float,
+            chroma: np.ndarray | None = None, max_chroma: float = 0.0, min_sum: float = 60.0) -> Support:
+    """Projective evidence for world points ``points`` (N, 3) in every view (see the module docstring).
+
+    ``chroma`` (N, 2): the points' chromaticity when painted (:func:`model_chroma`; NaN unknown); with
+    ``max_chroma`` > 0, a seen point whose pixel's colour is further than that from its own is also counted
+    recoloured. Pixels darker than ``min_sum`` have no colour."""
     out = Support()
+    test_colour = chroma is not None and max_chroma > 0 and len(chroma) == len(points)
     for view in views:
         u, v, z = view.project(points)
         u = np.rint(u)
@@ -166,6 +236,11 @@ def support(points: np.ndarray, views: Sequence[ViewData], tol: float, max_depth
         s = int(np.count_nonzero(seen))
         if s:
             out.residual = (out.residual * out.seen + float(np.abs(diff[seen]).sum())) / (out.seen + s)
+            if test_colour:
+                rows = np.flatnonzero(seen)
+                own = chroma[np.flatnonzero(inside)[rows]]
+                now = pixel_chroma(view, vi[rows], ui[rows], min_sum)
+                out.recoloured += int(np.count_nonzero(np.linalg.norm(now - own, axis=1) > max_chroma))  # NaN: no
         out.seen += s
         behind = valid & (diff > tol)
         if behind.any():

@@ -13,7 +13,7 @@ import numpy as np
 
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
 from code_as_monitor.perception.trackers.depth_body import apply, invert, support
-from code_as_monitor.perception.trackers.depth_search import BodyState, centre_shift
+from code_as_monitor.perception.trackers.depth_search import BodyState, centre_shift, pose_support
 from code_as_monitor.perception.trackers.depth_views import ViewData
 
 log = logging.getLogger(__name__)
@@ -91,7 +91,7 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
     T_rigid = parent.T @ part.rel
     if not part.lost and centre_shift(part.model, part.T, T_rigid) <= c.depth_tol:
         return
-    sup = support(apply(T_rigid, part.model.points), views, c.depth_tol, c.max_depth)
+    sup = pose_support(c, part.model, T_rigid, views)
     own = None if part.lost else part.last  # its own result this frame (a part placed on its object has none)
     denied = (sup.contradicted > c.max_contradiction * max(sup.seen + sup.contradicted + sup.occluded, 1)
               or (own is not None and sup.contradicted >= own.contradicted + c.min_seen))

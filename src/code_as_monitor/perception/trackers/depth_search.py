@@ -46,6 +46,13 @@ class BodyState:
     elements: list[int] = field(default_factory=list)
 
 
+def pose_support(c: DepthTrackerConfig, model: RigidBody, T: np.ndarray, views: list[ViewData]) -> Support:
+    """The views' evidence for ``model`` at pose ``T`` (4, 4): :func:`.depth_body.support` with the model's colours
+    (a point seen at its depth in another object's colour is not seen; ``support_chroma``)."""
+    return support(apply(T, model.points), views, c.depth_tol, c.max_depth, model.chroma, c.support_chroma,
+                   c.chroma_min_sum)
+
+
 def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], plane: Plane | None,
                dT_ee: np.ndarray | None, related: list[np.ndarray], dt: float, tool: tuple | None,
                alone: bool = False) -> None:
@@ -135,7 +142,7 @@ def _unmoved(c: DepthTrackerConfig, body: BodyState, views: list[ViewData],
     last = body.last
     assert body.model is not None and last is not None
     T = body.T.copy() if parent_move is None else parent_move @ body.T
-    sup = support(apply(T, body.model.points), views, c.depth_tol, c.max_depth)
+    sup = pose_support(c, body.model, T, views)
     if (sup.seen >= c.unmoved_seen * last.seen
             and sup.contradicted <= last.contradicted + max(2, 0.02 * last.seen)
             and sup.residual <= last.residual + c.unmoved_residual):
@@ -192,9 +199,9 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
         for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
             T0 = guesses[i]
             T, _ = register(model, source, T0, c.registration, rounds, c.max_iterations, c.min_information)
-            sup = support(apply(T, model.points), views, c.depth_tol, c.max_depth)
+            sup = pose_support(c, model, T, views)
             if at_guess[i] is None:
-                at_guess[i] = support(apply(T0, model.points), views, c.depth_tol, c.max_depth)
+                at_guess[i] = pose_support(c, model, T0, views)
             g = at_guess[i]
             assert g is not None
             # keep a guess the registration did not clearly improve, turned further than a body turns
@@ -242,7 +249,7 @@ def _climb_from(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], s
     assert model is not None
 
     def evidence(T: np.ndarray) -> Support:
-        return support(apply(T, model.points), views, c.depth_tol, c.max_depth)
+        return pose_support(c, model, T, views)
 
     ranked = sorted(((T, evidence(T)) for T in starts), key=lambda x: _rank(body, x[1]), reverse=True)[:2]
     best: tuple[np.ndarray, Support] | None = None
@@ -284,11 +291,12 @@ def _sinks(c: DepthTrackerConfig, model: RigidBody, T: np.ndarray, plane: Plane 
 
 
 def _explains_as_well(c: DepthTrackerConfig, guess: Support, registered: Support) -> bool:
-    """Whether a guessed pose's evidence is as good as the registered pose's: at least ``unmoved_seen`` of its
-    seen points and no more contradicted ones. The registration must then not move the body: a move the
-    frame does not ask for is one along a direction it barely constrains (a block whose top the next block
-    hides slides up its side faces, pulled toward the upper block's top, seeing one point more)."""
-    return guess.seen >= c.unmoved_seen * registered.seen and guess.contradicted <= registered.contradicted
+    """Whether a guessed pose's evidence is as good as the registered pose's: at least ``unmoved_seen`` of the points
+    it sees in their own colour (:func:`matched`) and no more contradicted ones. The registration must then not move
+    the body: a move the frame does not ask for is one along a direction it barely constrains (a block whose top the
+    next block hides slides up its side faces, pulled toward the upper block's top, seeing one point more; or half
+    onto a block of another colour that has just landed on it)."""
+    return matched(guess) >= c.unmoved_seen * matched(registered) and guess.contradicted <= registered.contradicted
 
 
 def _as_good_as_last(c: DepthTrackerConfig, body: BodyState, sup: Support) -> bool:
@@ -332,9 +340,14 @@ def _rank(body: BodyState, s: Support) -> tuple[bool, float]:
     return _no_more_contradicted(body, s), score(s)
 
 
+def matched(s: Support) -> int:
+    """The points a pose sees at their depth and in their own colour (seen, less the recoloured ones)."""
+    return s.seen - s.recoloured
+
+
 def score(s: Support) -> float:
-    """Evidence of a pose: points seen, a contradicted point costing three seen ones."""
-    return s.seen - 3.0 * s.contradicted
+    """Evidence of a pose: points seen in their own colour (:func:`matched`), a contradicted point costing three."""
+    return matched(s) - 3.0 * s.contradicted
 
 
 def _distinct(poses: list[np.ndarray], radius: float) -> list[np.ndarray]:

@@ -40,6 +40,7 @@ class ViewData:
 
     Attributes:
         depth: (H, W) metres (0 / NaN = no reading).
+        rgb: (H, W, 3) uint8 colour, or None when the view has none of the depth's size.
         width, height: pixels.
         fx, fy, cx, cy: intrinsics, pixels.
         R_cw, t_cw: world -> camera rotation (3, 3) and translation (3,).
@@ -51,6 +52,8 @@ class ViewData:
         cam = view.camera
         self.name = cam.name
         self.depth = view.depth
+        self.rgb = view.rgb if getattr(view, "rgb", None) is not None and np.ndim(view.rgb) == 3 \
+            and np.shape(view.rgb)[:2] == np.shape(view.depth) else None
         self.width, self.height = int(cam.width), int(cam.height)
         K = np.asarray(cam.K, dtype=np.float64)
         self.fx, self.fy, self.cx, self.cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]

@@ -40,7 +40,7 @@ Re-acquisition of points stale in every view: when an element has had a stale po
 ``reacquire_after`` frames, the hook set by :meth:`set_reacquire` (the agent re-runs the painter) is
 called; a returned element replaces the points and is re-seeded, ``None`` waits another period.
 
-Elements owned by the robot follow forward kinematics (:class:`.base.KinematicAnchor`). The per-view state,
+Elements owned by the robot follow forward kinematics (:class:`.anchor.KinematicAnchor`). The per-view state,
 the rigid fit and the fusion helpers live in :mod:`.lk_state`.
 """
 
@@ -55,7 +55,8 @@ from code_as_monitor.core.elements import Element, ElementKind
 from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import Observation, View
 from code_as_monitor.geometry.transforms import kabsch
-from code_as_monitor.perception.trackers.base import KinematicAnchor, LKTrackerConfig, Tracker, TrackResult
+from code_as_monitor.perception.trackers.anchor import KinematicAnchor
+from code_as_monitor.perception.trackers.base import LKTrackerConfig, Tracker, TrackResult
 from code_as_monitor.perception.trackers.lk_state import (
     ViewState,
     cam_z,

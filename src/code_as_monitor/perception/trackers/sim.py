@@ -3,7 +3,7 @@
 Reads ``Observation.object_poses`` (filled only by a simulator): at reset each element's points are
 expressed in its owner's frame (the ``"obj/part"`` pose when present, else the ``"obj"`` pose); each
 step maps them back with the current pose. End-effector elements follow forward kinematics (see
-:class:`~code_as_monitor.perception.trackers.base.KinematicAnchor`). Nothing is ever stale.
+:class:`~code_as_monitor.perception.trackers.anchor.KinematicAnchor`). Nothing is ever stale.
 """
 
 from __future__ import annotations
@@ -15,13 +15,8 @@ import numpy as np
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError
 from code_as_monitor.core.observation import Observation
-from code_as_monitor.perception.trackers.base import (
-    KinematicAnchor,
-    SimTrackerConfig,
-    Tracker,
-    TrackResult,
-    views_containing,
-)
+from code_as_monitor.perception.trackers.anchor import KinematicAnchor, views_containing
+from code_as_monitor.perception.trackers.base import SimTrackerConfig, Tracker, TrackResult
 
 
 def _poses(obs: Observation) -> dict[str, np.ndarray]:
