@@ -32,6 +32,11 @@ MIN_TOL = 0.003
 """Metres: the least depth tolerance for "on a surface" (the rendered depth's own precision is far finer)."""
 SHELL = 0.01
 """Metres: a sample less than this behind another surface is taken to be inside that object."""
+SUPPORT_SLACK = 0.0005
+"""Metres: how far below the support plane a slab sample may lie before the plane stops the growth (half the
+:data:`FINE_STEP`). The plane is the median of thousands of table points, far more precise than one reading: with
+the depth tolerance here (3 mm) a block's bottom grew 2-3 mm into the table, its centre 1-1.5 mm low, and a 2 cm
+block's carved height made it look longer than it was seen (an assumed side: weak)."""
 FINE_STEP = 0.001
 """Metres: the slab step of the final search (the growth is within this of the first blocked slab)."""
 COARSE_SLABS = 16
@@ -254,7 +259,7 @@ def _slabs_blocked(box: Box, views: Sequence[CarveView], support: SupportPlane |
     W = np.vstack(blocks) @ box.axes  # world
     bad = np.zeros(len(W), dtype=bool)
     if support is not None:
-        bad |= W @ support.normal < support.offset - tol
+        bad |= W @ support.normal < support.offset - SUPPORT_SLACK
     for v in views:
         bad |= ~_hidden_in(W, v, tol)
     need = max(2, int(np.ceil(CARVE_STOP * n * n)))
