@@ -127,7 +127,7 @@ def test_stack_pick_watches_the_tower_built_so_far():
     pick_green, pick_blue = _subgoal(gen, objs, 0), _subgoal(gen, objs, 2)
     assert [c.id for c in pick_green.constraints] == ["held_green_block"]
     by_id = {c.id: c for c in pick_blue.constraints}
-    assert set(by_id) == {"held_blue_block", "tower_green_block_on_red_block"}
+    assert set(by_id) == {"held_blue_block", "tower_green_block_on_red_block", "plumb_green_block_on_red_block"}
     tower = by_id["tower_green_block_on_red_block"]
     assert tower.phase.value == "during" and not tower.proactive
     assert [(p.obj, p.kind.value) for p in tower.parts] == [("green_block", "point"), ("red_block", "point")]
