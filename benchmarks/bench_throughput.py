@@ -7,13 +7,14 @@ time (what a run takes here) and by CPU time (this process and its sandbox worke
 costs, less inflated by other load on a shared machine), the ratio of each against open-loop measured
 in the same process, and the camera images rendered per episode (a method renders only the views and
 frames it reads). Offline: the kb planner, and for the baselines the ``vqa-standin`` single-image
-stand-in (not a VLM); CaM with the ``sim`` segmenter and tracker (the protocol's options).
+stand-in (not a VLM); CaM with the ``sim`` segmenter and ``--tracker`` (default ``depth``, ``cam bench``'s default
+since the fifteenth session; ``sim`` the oracle).
 
 ``--estimate RESULTS.jsonl`` instead estimates the full CLIPort protocol's wall time from a results
 file of a sample of it (``cam bench --seeds 2 --episodes 4 ...``): the mean per-episode time of each
 (condition, method) cell times the protocol's episodes per cell, summed, divided by ``--workers``.
 
-Run: ``.venv/bin/python benchmarks/bench_throughput.py [--conditions stack-p0.15,rope] [--episodes 2]``.
+Run: ``.venv/bin/python benchmarks/bench_throughput.py [--conditions stack-p0.15,rope] [--episodes 2] [--tracker sim]``.
 The last lines are machine-readable: ``name: value unit``.
 """
 
@@ -36,11 +37,13 @@ def _cpu_seconds() -> float:
     return t.user + t.system + t.children_user + t.children_system
 
 
-def measure(methods: list[str], conds: list[str], episodes: int, repeats: int) -> dict[str, dict[str, float]]:
-    """Per method: median episodes/hour by wall and by CPU time, and mean images per episode."""
+def measure(methods: list[str], conds: list[str], episodes: int, repeats: int,
+            tracker: str = "depth") -> dict[str, dict[str, float]]:
+    """Per method: median episodes/hour by wall and by CPU time, and mean images per episode (CaM with ``tracker``)."""
     rates: dict[str, dict[str, list[float]]] = {m: defaultdict(list) for m in methods}
     images: dict[str, list[float]] = defaultdict(list)
-    run_episode(Job(methods[0], conds[0], 1, 0), EpisodeOptions())  # imports and caches, not timed
+    opts = EpisodeOptions(tracker=tracker)
+    run_episode(Job(methods[0], conds[0], 1, 0), opts)  # imports and caches, not timed
     for r in range(repeats):
         walls: dict[str, list[float]] = defaultdict(list)
         cpus: dict[str, list[float]] = defaultdict(list)
@@ -48,7 +51,7 @@ def measure(methods: list[str], conds: list[str], episodes: int, repeats: int) -
             for e in range(episodes):
                 for m in methods:
                     cpu0 = _cpu_seconds()
-                    rec = run_episode(Job(m, c, 0, e), EpisodeOptions())
+                    rec = run_episode(Job(m, c, 0, e), opts)
                     if rec.get("error"):
                         print(f"  {m} {c} e{e}: error {rec['error']}", file=sys.stderr)
                     walls[m].append(rec["wall_time_s"])
@@ -94,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--episodes", type=int, default=2, help="episodes per method and condition")
     ap.add_argument("--repeats", type=int, default=3, help="rounds over every episode (median reported)")
     ap.add_argument("--methods", default=",".join(METHODS))
+    ap.add_argument("--tracker", default="depth", help="CaM's tracker: depth (cam bench's default) or sim (the oracle)")
     ap.add_argument("--estimate", default=None, help="a sample's results file: estimate the full protocol")
     ap.add_argument("--workers", type=int, default=2, help="episodes at once for --estimate")
     args = ap.parse_args(argv)
@@ -101,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         figures = estimate(args.estimate, args.workers, *FULL)
     else:
         methods = [x for x in args.methods.split(",") if x]
-        res = measure(methods, [c for c in args.conditions.split(",") if c], args.episodes, args.repeats)
+        res = measure(methods, [c for c in args.conditions.split(",") if c], args.episodes, args.repeats,
+                      args.tracker)
         figures = []
         ref = res.get("open-loop")
         for m, r in res.items():
