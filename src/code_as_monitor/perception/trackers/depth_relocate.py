@@ -23,7 +23,7 @@ from code_as_monitor.core.elements import Element
 from code_as_monitor.geometry.transforms import rotation_onto
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig
 from code_as_monitor.perception.trackers.depth_body import apply, invert, support
-from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, pose_support, score, search
+from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, score, search
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData
 
 SEGMENT_SHARE = 0.75
@@ -130,15 +130,3 @@ def _along_axis(c: DepthTrackerConfig, body: BodyState, T0: np.ndarray, cloud: n
             T[:3, 3] += d * axis
             scored.append((score(support(apply(T, P), views, c.depth_tol, c.max_depth)), T))
     return [T for _, T in sorted(scored, key=lambda x: -x[0])[:2]]
-
-
-def hidden_where_it_was(c: DepthTrackerConfig, body: BodyState, views: list[ViewData]) -> bool:
-    """Whether this frame leaves a lost ``body`` where it was last found: at its last pose its model is contradicted
-    (seen through) by no more of its points than the frame sees at their depth; a body only hidden (by the arm) has
-    most of its points occluded and few of either. A weak re-paint of such a body is no evidence that it moved
-    (stack p = 0.15, 1739362667: a block at rest lost three frames beside the arm, re-painted from 9 points of one
-    view 2.8 cm off, while its last pose was within 1.4 mm of the truth); one moved while hidden is seen through."""
-    if body.model is None:
-        return False
-    sup = pose_support(c, body.model, body.T, views)
-    return sup.contradicted <= sup.seen
