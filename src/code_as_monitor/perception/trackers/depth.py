@@ -32,7 +32,8 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    re-painted from its whole object's masks where its earlier paint had seen it is refused: stale), except
    that a lost whole object whose known model registers to its new segmentation keeps that model
    (:func:`.depth_relocate.relocate`), and its parts their place on it, and that a carried body's weak re-paint does
-   not replace its known model when that relocates (:func:`.depth_relocate.keep_known`). A part too small to
+   not replace its known model when that relocates (:func:`.depth_relocate.keep_known`), nor any weak re-paint that
+   of a body the frame leaves where it was (:func:`.depth_relocate.hidden_where_it_was`). A part too small to
    register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part moving it, is not searched
    for (its few points fit nearby surfaces): stale rather than wrong;
 5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted
@@ -77,7 +78,7 @@ from code_as_monitor.perception.trackers.depth_detect import (
     track_small,
 )
 from code_as_monitor.perception.trackers.depth_detections import ViewDetections, detect
-from code_as_monitor.perception.trackers.depth_relocate import keep_known, relocate
+from code_as_monitor.perception.trackers.depth_relocate import hidden_where_it_was, keep_known, relocate
 from code_as_monitor.perception.trackers.depth_search import BodyState, Owner, moves_body, track_body
 from code_as_monitor.perception.trackers.depth_views import Plane, ViewData, fit_support_plane
 
@@ -319,6 +320,9 @@ class DepthTracker(Tracker):
             if body is not None and eid in body.elements and keep_known(c, body, self._bodies, new, views, self._plane):
                 self._fresh.add(eid)  # a weak re-paint: the known model, relocated, keeps the element on it
                 continue
+            if body is not None and new.support is not None and new.support.weak() and \
+                    hidden_where_it_was(c, body, views):
+                continue  # a weak re-paint of a body only hidden where it was is no evidence it moved: stale
             self._elements[eid] = new
             self._last[eid] = new.points.copy()
             if body is not None and eid in body.elements:
