@@ -252,6 +252,23 @@ def self_knowledge(records: list[Record]) -> tuple[int, int, dict[str, tuple[flo
     return len(flagged), len(large), _summary(sound)
 
 
+LARGE_DEG = 10.0
+"""A direction or normal error (degrees) past which a check reading the element's direction should not trust it."""
+
+
+def _angle_deg(r: Record) -> float:
+    return max((v for k, v in r.errors.items() if k.endswith("_deg")), default=0.0)
+
+
+def direction_knowledge(records: list[Record]) -> tuple[int, int, float]:
+    """The same for directions: among scored lines and surfaces with a direction or normal error over ``LARGE_DEG``,
+    how many the painter flagged weak (n flagged, n large), and the largest such error of those it calls sound."""
+    scored = [r for r in records if r.errors is not None and any(k.endswith("_deg") for k in r.errors)]
+    large = [r for r in scored if _angle_deg(r) > LARGE_DEG]
+    sound = [_angle_deg(r) for r in scored if not r.weak]
+    return sum(r.weak for r in large), len(large), max(sound, default=float("nan"))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5, help="seeds per task (>= 1; the issue asks for >= 5)")
@@ -308,6 +325,7 @@ def main(argv: list[str] | None = None) -> int:
           f"an uncertainty of at least half the error; and the elements it calls sound (not weak, uncertainty under "
           f"{LARGE_MM:.0f} mm):")
     knows: dict[str, tuple[int, int, dict]] = {}
+    dknows: dict[str, tuple[int, int, float]] = {}
     for tag, sets in (("two_view", TWO_VIEW_SETS), ("front_only", ("front",))):
         knows[tag] = k = self_knowledge([r for r in records if r.views in sets])
         unflagged = sorted({(r.task, r.name) for r in records if r.views in sets and r.errors is not None
@@ -316,6 +334,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {tag:<10}: {k[0]}/{k[1]} large errors flagged; sound elements: {_fmt(k[2])}")
         if unflagged:
             print(f"             large and not flagged: {', '.join(f'{t} {n}' for t, n in unflagged)}")
+        dknows[tag] = dk = direction_knowledge([r for r in records if r.views in sets])
+        off = sorted({(r.task, r.name) for r in records if r.views in sets and r.errors is not None
+                      and _angle_deg(r) > LARGE_DEG and not r.weak})
+        print(f"  {tag:<10}: directions and normals over {LARGE_DEG:.0f} deg flagged weak: {dk[0]}/{dk[1]}; "
+              f"the largest the painter calls sound: {dk[2]:.1f} deg")
+        if off:
+            print(f"             over {LARGE_DEG:.0f} deg and not flagged: {', '.join(f'{t} {n}' for t, n in off)}")
 
     def agg(sets, metric: str, stat: int) -> float:
         vals = [overall[(vs, n)][metric][stat] for vs in sets for n in NOISES_MM if metric in overall[(vs, n)]]
@@ -334,6 +359,8 @@ def main(argv: list[str] | None = None) -> int:
         flagged, large, sound = knows[tag]
         print(f"{tag}_large_errors_flagged: {flagged}/{large} count")
         print(f"{tag}_sound_point_max: {sound['point'][1] if 'point' in sound else float('nan'):.2f} mm")
+        print(f"{tag}_large_directions_flagged: {dknows[tag][0]}/{dknows[tag][1]} count")
+        print(f"{tag}_sound_direction_max: {dknows[tag][2]:.2f} deg")
     return 0
 
 

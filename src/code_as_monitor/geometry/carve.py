@@ -11,7 +11,7 @@ World frame, metres; ``axes`` (3, 3) hold one unit axis per row.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -68,6 +68,7 @@ class CarveView:
     camera: CameraModel
     siblings: np.ndarray | None = None
     robot: np.ndarray | None = None
+    behind_siblings: bool = False  # the part may go on behind its siblings' surfaces (:func:`open_direction`)
 
 
 _UNIT_GRIDS: dict[int, np.ndarray] = {}
@@ -299,13 +300,47 @@ def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
     zi = z[idx]
     valid = np.isfinite(D) & (D > 0)
     own = view.mask[vi, ui]
+    if view.siblings is not None and view.behind_siblings:
+        own = own | view.siblings[vi, ui]
     # the part's own surface at or in front of the sample: it may be inside; another surface: only when the
     # sample lies more than SHELL behind it (closer, it would be inside that other thing); a sibling part's
     # surface: never (the object's other parts are where the part ends)
     ok[idx] = ~valid | np.where(own, zi + tol >= D, zi - max(SHELL, tol) > D)
-    if view.siblings is not None:
+    if view.siblings is not None and not view.behind_siblings:
         ok[idx] &= ~view.siblings[vi, ui]
     return ok
 
 
-__all__ = ["CarveView", "carve"]
+def open_direction(observed: Box, carved: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
+                   grow_axes: Sequence[int] = (0, 1, 2), points: np.ndarray | None = None,
+                   compact: bool = False) -> Box:
+    """``carved`` (from :func:`carve` of ``observed``) with the sides marked ``assumed`` that leave a line's direction
+    open: the sides across its longest axis that, carved again as if the part's sibling parts bounded nothing, let it
+    run at least as long across as along (its siblings' surfaces taken as its own: it may go on right behind them).
+
+    Carving stops a part at its siblings' surfaces (the object's other parts are where a part ends); that is an
+    assumption where the part may go on behind them. A line takes the carved box's longest axis, so when a part is
+    seen only by a short end whose rest lies behind its sibling (a book stood in its shelf, its spine on the far side
+    of the cover: the views see the spine's 1 x 2.4 cm top alone, and the line lay across the spine, 90 degrees off),
+    nothing the views show fixes its direction. Those sides keep their growth (the element does not move) and are
+    ``assumed``, their ``room`` the sibling-free growth: the element is weak
+    (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`) and its ``uncertainty`` says how far it may reach.
+    """
+    if not any(v.siblings is not None for v in views):
+        return carved
+    free = carve(observed, [replace(v, behind_siblings=True) for v in views], support, grow_axes, points=points,
+                 compact=compact)
+    reach = np.where(free.hidden, free.room, free.grown)  # (2, 3): how far each side may go without siblings
+    a = int(np.argmax(carved.extent))
+    out = Box(carved.axes.copy(), carved.lo.copy(), carved.hi.copy(), carved.noise, carved.grown.copy(),
+              carved.hidden.copy(), carved.assumed.copy(), carved.room.copy())
+    for b in range(3):
+        if b == a or observed.extent[b] + reach[:, b].sum() < carved.extent[a]:
+            continue
+        more = reach[:, b] > carved.grown[:, b] + FINE_STEP
+        out.assumed[more, b] = True
+        out.room[more, b] = np.maximum(out.room[more, b], reach[more, b])
+    return out
+
+
+__all__ = ["CarveView", "carve", "open_direction"]

@@ -37,7 +37,7 @@ from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.carve import CarveView, carve
+from code_as_monitor.geometry.carve import CarveView, carve, open_direction
 from code_as_monitor.geometry.fusion import voxel_downsample
 from code_as_monitor.geometry.occlusion import OccluderView, robot_hidden_fraction
 from code_as_monitor.geometry.part_cloud import (
@@ -167,10 +167,12 @@ def fit_part(
 ) -> tuple[np.ndarray, Box]:
     """Element points (k, 3) and the carved box of a part's cloud ``Q`` (M, 3) seen in ``views``; ``compact``:
     ``Q`` is a whole object (see :func:`~.carve.carve`)."""
-    box = fit_box(Q, voxel) if support is None else fit_box(Q, voxel, noise=support.noise, up=support.normal)
-    thin = int(np.argmin(box.extent))
+    seen = fit_box(Q, voxel) if support is None else fit_box(Q, voxel, noise=support.noise, up=support.normal)
+    thin = int(np.argmin(seen.extent))
     grow = [a for a in range(3) if not (kind is ElementKind.SURFACE and a == thin)]
-    box = carve(box, views, support, grow, points=Q, compact=compact)
+    box = carve(seen, views, support, grow, points=Q, compact=compact)
+    if kind is ElementKind.LINE:  # a line whose direction only its siblings' surfaces decide is weak
+        box = open_direction(seen, box, views, support, grow, Q, compact)
     return element_points(Q, box, kind, voxel, thin), box
 
 
