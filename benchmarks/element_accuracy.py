@@ -260,13 +260,15 @@ def _angle_deg(r: Record) -> float:
     return max((v for k, v in r.errors.items() if k.endswith("_deg")), default=0.0)
 
 
-def direction_knowledge(records: list[Record]) -> tuple[int, int, float]:
+def direction_knowledge(records: list[Record]) -> tuple[int, int, float, list[tuple[str, str]]]:
     """The same for directions: among scored lines and surfaces with a direction or normal error over ``LARGE_DEG``,
-    how many the painter flagged weak (n flagged, n large), and the largest such error of those it calls sound."""
+    how many the painter flagged weak (n flagged, n large), the largest error of those it calls sound, and the
+    (task, element) names of the large ones it did not flag."""
     scored = [r for r in records if r.errors is not None and any(k.endswith("_deg") for k in r.errors)]
     large = [r for r in scored if _angle_deg(r) > LARGE_DEG]
     sound = [_angle_deg(r) for r in scored if not r.weak]
-    return sum(r.weak for r in large), len(large), max(sound, default=float("nan"))
+    unflagged = sorted({(r.task, r.name) for r in large if not r.weak})
+    return sum(r.weak for r in large), len(large), max(sound, default=float("nan")), unflagged
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -325,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
           f"an uncertainty of at least half the error; and the elements it calls sound (not weak, uncertainty under "
           f"{LARGE_MM:.0f} mm):")
     knows: dict[str, tuple[int, int, dict]] = {}
-    dknows: dict[str, tuple[int, int, float]] = {}
+    dknows: dict[str, tuple[int, int, float, list[tuple[str, str]]]] = {}
     for tag, sets in (("two_view", TWO_VIEW_SETS), ("front_only", ("front",))):
         knows[tag] = k = self_knowledge([r for r in records if r.views in sets])
         unflagged = sorted({(r.task, r.name) for r in records if r.views in sets and r.errors is not None
@@ -335,12 +337,10 @@ def main(argv: list[str] | None = None) -> int:
         if unflagged:
             print(f"             large and not flagged: {', '.join(f'{t} {n}' for t, n in unflagged)}")
         dknows[tag] = dk = direction_knowledge([r for r in records if r.views in sets])
-        off = sorted({(r.task, r.name) for r in records if r.views in sets and r.errors is not None
-                      and _angle_deg(r) > LARGE_DEG and not r.weak})
         print(f"  {tag:<10}: directions and normals over {LARGE_DEG:.0f} deg flagged weak: {dk[0]}/{dk[1]}; "
               f"the largest the painter calls sound: {dk[2]:.1f} deg")
-        if off:
-            print(f"             over {LARGE_DEG:.0f} deg and not flagged: {', '.join(f'{t} {n}' for t, n in off)}")
+        if dk[3]:
+            print(f"             over {LARGE_DEG:.0f} deg and not flagged: {', '.join(f'{t} {n}' for t, n in dk[3])}")
 
     def agg(sets, metric: str, stat: int) -> float:
         vals = [overall[(vs, n)][metric][stat] for vs in sets for n in NOISES_MM if metric in overall[(vs, n)]]

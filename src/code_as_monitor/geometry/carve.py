@@ -328,14 +328,14 @@ def open_direction(observed: Box, carved: Box, views: Sequence[CarveView], suppo
     """
     if not any(v.siblings is not None for v in views):
         return carved
-    free = carve(observed, [replace(v, behind_siblings=True) for v in views], support, grow_axes, points=points,
+    a = int(np.argmax(carved.extent))
+    across = [b for b in grow_axes if b != a]  # only the sides across the line can open its direction
+    free = carve(observed, [replace(v, behind_siblings=True) for v in views], support, across, points=points,
                  compact=compact)
     reach = np.where(free.hidden, free.room, free.grown)  # (2, 3): how far each side may go without siblings
-    a = int(np.argmax(carved.extent))
-    out = Box(carved.axes.copy(), carved.lo.copy(), carved.hi.copy(), carved.noise, carved.grown.copy(),
-              carved.hidden.copy(), carved.assumed.copy(), carved.room.copy())
-    for b in range(3):
-        if b == a or observed.extent[b] + reach[:, b].sum() < carved.extent[a]:
+    out = replace(carved, assumed=carved.assumed.copy(), room=carved.room.copy())
+    for b in across:
+        if observed.extent[b] + reach[:, b].sum() < carved.extent[a]:
             continue
         more = reach[:, b] > carved.grown[:, b] + FINE_STEP
         out.assumed[more, b] = True

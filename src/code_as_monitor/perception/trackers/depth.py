@@ -32,8 +32,8 @@ An element's points move with its body's pose: ``p_now = T_body @ p_painted``. P
    re-painted from its whole object's masks where its earlier paint had seen it is refused: stale), except
    that a lost whole object whose known model registers to its new segmentation keeps that model
    (:func:`.depth_relocate.relocate`), and its parts their place on it, and that a carried body's weak re-paint does
-   not replace its known model when that relocates (:func:`.depth_relocate.keep_known`), nor any weak re-paint that
-   of a body the frame leaves where it was (:func:`.depth_relocate.hidden_where_it_was`). A part too small to
+   not replace its known model when that relocates (:func:`.depth_relocate.keep_known`), nor a weak re-paint of a
+   body the frame leaves where it was (:func:`.depth_relocate.hidden_where_it_was`). A part too small to
    register alone (:func:`.depth_detect.is_small`) whose object is lost, with no other part moving it, is not searched
    for (its few points fit nearby surfaces): stale rather than wrong;
 5. claims (:mod:`.depth_claims`), after every body's frame: two objects on one surface lose the one painted

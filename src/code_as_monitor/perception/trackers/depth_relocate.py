@@ -30,7 +30,9 @@ SEGMENT_SHARE = 0.75
 """The share of a fresh segmentation's points a relocated model must explain (within :func:`share_on_model`'s reach of
 the model's points) when it passes on ``min_seen`` points rather than tracking's bar: three quarters of what the
 segmenter found there is the known object's surface."""
-HIDDEN_CONTRADICTED = 0.1  # share of a lost body's readable points seen through at its last pose: moved, not hidden
+HIDDEN_CONTRADICTED = 0.1
+"""The most of a lost body's readable points (seen + seen through) at its last pose that may be seen through for the
+frame to leave it where it was (:func:`hidden_where_it_was`); more, and it moved."""
 
 
 def share_on_model(body: BodyState, T: np.ndarray, cloud: np.ndarray, reach: float) -> float:
