@@ -241,15 +241,23 @@ def _point_like_mm(r: Record) -> float:
     return 1000.0 * max(v for k, v in r.errors.items() if not k.endswith("_deg"))
 
 
-def self_knowledge(records: list[Record]) -> tuple[int, int, dict[str, tuple[float, float, int]]]:
+def _sound(r: Record) -> bool:
+    return not r.weak and 1000.0 * r.uncertainty < LARGE_MM
+
+
+def self_knowledge(records: list[Record]) -> tuple[int, int, dict[str, tuple[float, float, int]], int, int, int]:
     """Whether the painter knows which elements are off: among scored elements with a point-like error over
     ``LARGE_MM``, how many it flagged weak or gave an uncertainty of at least half the error (n flagged, n large);
-    and the summary over the elements it calls sound (not weak, uncertainty under ``LARGE_MM``)."""
+    the summary over the elements it calls sound (not weak, uncertainty under ``LARGE_MM``); and what the flags cost:
+    among the elements within ``LARGE_MM``, how many it does not call sound, and how many of those only for their
+    uncertainty (n unsound, n unsound by uncertainty alone, n small)."""
     scored = [r for r in records if r.errors is not None]
     large = [r for r in scored if _point_like_mm(r) > LARGE_MM]
     flagged = [r for r in large if r.weak or 1000.0 * r.uncertainty >= 0.5 * _point_like_mm(r)]
-    sound = [r for r in scored if not r.weak and 1000.0 * r.uncertainty < LARGE_MM]
-    return len(flagged), len(large), _summary(sound)
+    small = [r for r in scored if _point_like_mm(r) <= LARGE_MM]
+    unsound = [r for r in small if not _sound(r)]
+    return (len(flagged), len(large), _summary([r for r in scored if _sound(r)]), len(unsound),
+            sum(not r.weak for r in unsound), len(small))
 
 
 LARGE_DEG = 10.0
@@ -326,7 +334,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"does the painter know? point-like errors over {LARGE_MM:.0f} mm flagged weak (ElementSupport.weak) or with "
           f"an uncertainty of at least half the error; and the elements it calls sound (not weak, uncertainty under "
           f"{LARGE_MM:.0f} mm):")
-    knows: dict[str, tuple[int, int, dict]] = {}
+    knows: dict[str, tuple[int, int, dict, int, int, int]] = {}
     dknows: dict[str, tuple[int, int, float, list[tuple[str, str]]]] = {}
     for tag, sets in (("two_view", TWO_VIEW_SETS), ("front_only", ("front",))):
         knows[tag] = k = self_knowledge([r for r in records if r.views in sets])
@@ -334,6 +342,8 @@ def main(argv: list[str] | None = None) -> int:
                             and _point_like_mm(r) > LARGE_MM and not r.weak
                             and 1000.0 * r.uncertainty < 0.5 * _point_like_mm(r)})
         print(f"  {tag:<10}: {k[0]}/{k[1]} large errors flagged; sound elements: {_fmt(k[2])}")
+        print(f"             errors within {LARGE_MM:.0f} mm the painter does not call sound: {k[3]}/{k[5]} "
+              f"({k[4]} of them for their uncertainty alone, not weak)")
         if unflagged:
             print(f"             large and not flagged: {', '.join(f'{t} {n}' for t, n in unflagged)}")
         dknows[tag] = dk = direction_knowledge([r for r in records if r.views in sets])
@@ -356,8 +366,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{tag}_direction_max: {agg(sets, 'direction_deg', 1):.2f} deg")
         print(f"{tag}_normal_max: {agg(sets, 'normal_deg', 1):.2f} deg")
         print(f"{tag}_centred_pair_max: {pair_max(sets):.2f} mm")
-        flagged, large, sound = knows[tag]
+        flagged, large, sound, unsound, _, small = knows[tag]
         print(f"{tag}_large_errors_flagged: {flagged}/{large} count")
+        print(f"{tag}_small_errors_unsound: {unsound}/{small} count")
         print(f"{tag}_sound_point_max: {sound['point'][1] if 'point' in sound else float('nan'):.2f} mm")
         print(f"{tag}_large_directions_flagged: {dknows[tag][0]}/{dknows[tag][1]} count")
         print(f"{tag}_sound_direction_max: {dknows[tag][2]:.2f} deg")

@@ -111,8 +111,9 @@ class ElementSupport:
             moved by a tracker whose motion is exact, the oracle's): a tracked estimate is no better supported than
             its tracker's weakest frame (:func:`~code_as_monitor.painter.carry_over.evidence`).
         uncertainty: metres; how far the views let the element's centre lie from where it is painted because of
-            its assumed sides (:attr:`code_as_monitor.geometry.solid.Box.uncertainty`); 0 when a view bounds every
-            side (then only the depth noise and the fit, ``residual``, limit it).
+            its assumed sides, or sides that may go on behind a sibling part's surface
+            (:attr:`code_as_monitor.geometry.solid.Box.uncertainty`); 0 when a view bounds every side (then only
+            the depth noise and the fit, ``residual``, limit it). It does not make the element weak.
     """
 
     points: int

@@ -146,7 +146,7 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
     a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
     if compact and a in grow_axes and not out.hidden[:, a].any():  # a compact solid's depth: see _assume_depth
         prior = min(ext[b] for b in range(3) if b != a)
-        if _spread(box, a, points) < FACE_ALONE * prior + NOISE_SPAN * box.noise:
+        if _face_alone(box, a, points):
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
         elif ext[a] + out.grown[:, a].sum() > (1.0 + FACE_ALONE) * prior:
             _assume_depth(out, ext, a, out.grown[:, a].copy())
@@ -311,12 +311,26 @@ def _hidden_in(W: np.ndarray, view: CarveView, tol: float) -> np.ndarray:
     return ok
 
 
-def open_direction(observed: Box, carved: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
-                   grow_axes: Sequence[int] = (0, 1, 2), points: np.ndarray | None = None,
-                   compact: bool = False) -> Box:
+def sibling_free(observed: Box, views: Sequence[CarveView], support: SupportPlane | None = None,
+                 grow_axes: Sequence[int] = (0, 1, 2), points: np.ndarray | None = None,
+                 compact: bool = False) -> Box | None:
+    """``observed`` carved as if the part's sibling parts bounded nothing (their surfaces taken as its own: it may go on
+    right behind them), for :func:`open_direction` and :func:`behind_siblings`; None when no view has siblings."""
+    if not any(v.siblings is not None for v in views):
+        return None
+    return carve(observed, [replace(v, behind_siblings=True) for v in views], support, grow_axes, points=points,
+                 compact=compact)
+
+
+def _reach(free: Box) -> np.ndarray:
+    """(2, 3) metres: how far each side of a sibling-free carving may go (the room of a side it left unbounded)."""
+    return np.where(free.hidden, free.room, free.grown)
+
+
+def open_direction(observed: Box, carved: Box, free: Box | None, grow_axes: Sequence[int] = (0, 1, 2)) -> Box:
     """``carved`` (from :func:`carve` of ``observed``) with the sides marked ``assumed`` that leave a line's direction
-    open: the sides across its longest axis that, carved again as if the part's sibling parts bounded nothing, let it
-    run at least as long across as along (its siblings' surfaces taken as its own: it may go on right behind them).
+    open: the sides across its longest axis that, in ``free`` (:func:`sibling_free`, the part carved as if its sibling
+    parts bounded nothing), let it run at least as long across as along.
 
     Carving stops a part at its siblings' surfaces (the object's other parts are where a part ends); that is an
     assumption where the part may go on behind them. A line takes the carved box's longest axis, so when a part is
@@ -326,16 +340,13 @@ def open_direction(observed: Box, carved: Box, views: Sequence[CarveView], suppo
     ``assumed``, their ``room`` the sibling-free growth: the element is weak
     (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`) and its ``uncertainty`` says how far it may reach.
     """
-    if not any(v.siblings is not None for v in views):
+    if free is None:
         return carved
     a = int(np.argmax(carved.extent))
-    across = [b for b in grow_axes if b != a]  # only the sides across the line can open its direction
-    free = carve(observed, [replace(v, behind_siblings=True) for v in views], support, across, points=points,
-                 compact=compact)
-    reach = np.where(free.hidden, free.room, free.grown)  # (2, 3): how far each side may go without siblings
+    reach = _reach(free)
     out = replace(carved, assumed=carved.assumed.copy(), room=carved.room.copy())
-    for b in across:
-        if observed.extent[b] + reach[:, b].sum() < carved.extent[a]:
+    for b in grow_axes:  # only the sides across the line can open its direction
+        if b == a or observed.extent[b] + reach[:, b].sum() < carved.extent[a]:
             continue
         more = reach[:, b] > carved.grown[:, b] + FINE_STEP
         out.assumed[more, b] = True
@@ -343,4 +354,34 @@ def open_direction(observed: Box, carved: Box, views: Sequence[CarveView], suppo
     return out
 
 
-__all__ = ["CarveView", "carve", "open_direction"]
+def _face_alone(box: Box, a: int, points: np.ndarray | None) -> bool:
+    """Whether ``box``'s axis ``a`` is seen on one face alone: the points span along it less than
+    :data:`FACE_ALONE` of the smaller of the other two extents, plus the depth noise's own span."""
+    prior = min(float(box.extent[b]) for b in range(3) if b != a)
+    return _spread(box, a, points) < FACE_ALONE * prior + NOISE_SPAN * box.noise
+
+
+def behind_siblings(observed: Box, carved: Box, free: Box | None, points: np.ndarray | None = None) -> Box:
+    """``carved`` (from :func:`carve` of ``observed``) with ``behind`` filled in from ``free`` (:func:`sibling_free`):
+    along each axis the part is seen on one face alone, for each side neither hidden nor assumed, how much further
+    than its carved growth it could go on behind its siblings' surfaces.
+
+    Carving ends a part where its siblings begin, which is right for most parts (a handle on its drawer's front, a
+    lid on its pot: their depth is seen, or bounded by the views) and wrong where the part shows one face and its
+    rest lies behind a sibling (a closed drawer: its front panel is all the views see, its tray runs on under the
+    cabinet's top; carved, the drawer is its front panel, its centre about 11 cm before the tray's). A part seen on
+    one face alone may be a face by nature (a cover, a panel), so the views cannot tell the two apart: the element
+    stays where it is painted, not weak, and the room behind the siblings enters its ``uncertainty``
+    (:attr:`~code_as_monitor.geometry.solid.Box.uncertainty`). Along an axis the points span, a sibling is where the
+    part ends, and nothing is recorded."""
+    if free is None:
+        return carved
+    extra = np.maximum(_reach(free) - carved.grown, 0.0)
+    extra[(carved.hidden | carved.assumed) | (extra <= FINE_STEP)] = 0.0
+    for a in range(3):
+        if not _face_alone(observed, a, points):
+            extra[:, a] = 0.0
+    return replace(carved, behind=extra)
+
+
+__all__ = ["CarveView", "behind_siblings", "carve", "open_direction", "sibling_free"]

@@ -54,8 +54,10 @@ class Box:
     ``p @ axes.T`` (metres), ``noise`` the estimated depth noise (metres), ``grown`` (2, 3) metres each side
     (row 0: lo, row 1: hi) moved outwards by carving, ``hidden`` (2, 3) True for a side no view bounded,
     ``assumed`` (2, 3) True for a side whose growth is the compact-solid assumption (a face seen alone; see
-    :func:`~.carve.carve`), and ``room`` (2, 3) metres, for a hidden or assumed side, the most it could grow as far
-    as the views tell (the growth limit for a hidden one)."""
+    :func:`~.carve.carve`), ``room`` (2, 3) metres, for a hidden or assumed side, the most it could grow as far
+    as the views tell (the growth limit for a hidden one), and ``behind`` (2, 3) metres, for a side carving stopped
+    at a sibling part's surface, how much further it could go on right behind that surface (see
+    :func:`~.carve.behind_siblings`; the side is not assumed: parts usually end where their siblings begin)."""
 
     axes: np.ndarray
     lo: np.ndarray
@@ -65,6 +67,7 @@ class Box:
     hidden: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=bool))
     assumed: np.ndarray = field(default_factory=lambda: np.zeros((2, 3), dtype=bool))
     room: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
+    behind: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
 
     @property
     def centre(self) -> np.ndarray:
@@ -79,11 +82,12 @@ class Box:
     @property
     def uncertainty(self) -> float:
         """Metres: how far the views let the centre lie from :attr:`centre` because of the sides whose depth is
-        assumed (hidden or ``assumed``): per axis, half the larger of (the assumed growth) and (the room left
-        beyond it), the axes combined as a vector; 0 when a view bounds every side."""
+        assumed (hidden or ``assumed``) or that may go on behind a sibling part (``behind``): per axis, half the
+        larger of (the assumed growth) and (the room left beyond it, and behind the siblings), the axes combined as
+        a vector; 0 when a view bounds every side."""
         guess = self.hidden | self.assumed
         g = np.where(guess, self.grown, 0.0).sum(axis=0)
-        r = np.where(guess, np.maximum(self.room - self.grown, 0.0), 0.0).sum(axis=0)
+        r = np.where(guess, np.maximum(self.room - self.grown, 0.0), np.maximum(self.behind, 0.0)).sum(axis=0)
         return float(np.linalg.norm(np.maximum(g, r) / 2.0))
 
     def residual(self, points: np.ndarray) -> float:
