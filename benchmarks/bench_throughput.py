@@ -14,6 +14,9 @@ since the fifteenth session; ``sim`` the oracle).
 file of a sample of it (``cam bench --seeds 2 --episodes 4 ...``): the mean per-episode time of each
 (condition, method) cell times the protocol's episodes per cell, summed, divided by ``--workers``.
 
+``--robot-visuals mesh,hull`` runs every method with the arm drawn both ways (``hull``: its collision meshes, the
+fidelity-for-speed setting of ``cam bench --robot-visual``) and prints the hull / mesh ratio of episodes per hour.
+
 Run: ``.venv/bin/python benchmarks/bench_throughput.py [--conditions stack-p0.15,rope] [--episodes 2] [--tracker sim]``.
 The last lines are machine-readable: ``name: value unit``.
 """
@@ -37,21 +40,30 @@ def _cpu_seconds() -> float:
     return t.user + t.system + t.children_user + t.children_system
 
 
+def _label(method: str, visual: str, visuals: list[str]) -> str:
+    return method if visuals == ["mesh"] else f"{method}@{visual}"
+
+
 def measure(methods: list[str], conds: list[str], episodes: int, repeats: int,
-            tracker: str = "depth") -> dict[str, dict[str, float]]:
-    """Per method: median episodes/hour by wall and by CPU time, and mean images per episode (CaM with ``tracker``)."""
-    rates: dict[str, dict[str, list[float]]] = {m: defaultdict(list) for m in methods}
+            tracker: str = "depth", visuals: tuple[str, ...] = ("mesh",)) -> dict[str, dict[str, float]]:
+    """Per method (and robot visual, labelled ``method@visual`` when not ``mesh`` alone): median episodes/hour by wall
+    and by CPU time, and mean images per episode (CaM with ``tracker``); the visuals interleaved like the methods."""
+    vis = list(visuals)
+    runs = [(m, v) for m in methods for v in vis]
+    rates: dict[str, dict[str, list[float]]] = {_label(m, v, vis): defaultdict(list) for m, v in runs}
     images: dict[str, list[float]] = defaultdict(list)
-    opts = EpisodeOptions(tracker=tracker)
-    run_episode(Job(methods[0], conds[0], 1, 0), opts)  # imports and caches, not timed
+    opts = {v: EpisodeOptions(tracker=tracker, robot_visual=v) for v in vis}
+    for v in vis:
+        run_episode(Job(methods[0], conds[0], 1, 0), opts[v])  # imports and caches, not timed
     for r in range(repeats):
         walls: dict[str, list[float]] = defaultdict(list)
         cpus: dict[str, list[float]] = defaultdict(list)
         for c in conds:
             for e in range(episodes):
-                for m in methods:
+                for m0, v in runs:
+                    m = _label(m0, v, vis)
                     cpu0 = _cpu_seconds()
-                    rec = run_episode(Job(m, c, 0, e), opts)
+                    rec = run_episode(Job(m0, c, 0, e), opts[v])
                     if rec.get("error"):
                         print(f"  {m} {c} e{e}: error {rec['error']}", file=sys.stderr)
                     walls[m].append(rec["wall_time_s"])
@@ -98,6 +110,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3, help="rounds over every episode (median reported)")
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--tracker", default="depth", help="CaM's tracker: depth (cam bench's default) or sim (the oracle)")
+    ap.add_argument("--robot-visuals", default="mesh",
+                    help="comma list of how the cameras draw the arm: mesh (default), hull (its collision meshes); "
+                         "with both, each method runs with each, interleaved, and the hull/mesh ratios are printed")
     ap.add_argument("--estimate", default=None, help="a sample's results file: estimate the full protocol")
     ap.add_argument("--workers", type=int, default=2, help="episodes at once for --estimate")
     args = ap.parse_args(argv)
@@ -105,17 +120,22 @@ def main(argv: list[str] | None = None) -> int:
         figures = estimate(args.estimate, args.workers, *FULL)
     else:
         methods = [x for x in args.methods.split(",") if x]
+        visuals = [x for x in args.robot_visuals.split(",") if x]
         res = measure(methods, [c for c in args.conditions.split(",") if c], args.episodes, args.repeats,
-                      args.tracker)
+                      args.tracker, tuple(visuals))
         figures = []
-        ref = res.get("open-loop")
         for m, r in res.items():
             print(f"{m:16s} images/episode {r['images']:6.1f}")
             figures.append((f"episodes_per_hour_wall {m}", r["wall"], "episodes/h"))
             figures.append((f"episodes_per_hour_cpu {m}", r["cpu"], "episodes/h"))
-            if ref is not None and m != "open-loop":
+            base, _, vis = m.partition("@")
+            ref = res.get(_label("open-loop", vis or "mesh", visuals))
+            if ref is not None and base != "open-loop":
                 figures.append((f"ratio_vs_open_loop_wall {m}", r["wall"] / ref["wall"], "x"))
                 figures.append((f"ratio_vs_open_loop_cpu {m}", r["cpu"] / ref["cpu"], "x"))
+            mesh = res.get(_label(base, "mesh", visuals))
+            if vis and vis != "mesh" and mesh is not None:  # episodes/hour, so > 1 is faster
+                figures.append((f"ratio_{vis}_vs_mesh_cpu {base}", r["cpu"] / mesh["cpu"], "x"))
     for name, value, unit in figures:
         print(f"{name}: {value:.3g} {unit}")
     return 0

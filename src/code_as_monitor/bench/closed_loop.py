@@ -62,6 +62,8 @@ class ClosedLoopConfig:
             ``mv-off``, ``cs-off``, ``cp-off``, ``reactive-only``, ``proactive-only``).
         cameras: a named camera set (:data:`code_as_monitor.sim.cameras.CAMERA_SETS`): ``task`` the task's own views,
             or ``front-top``, ``front``, ``shoulders``, ``rlbench`` for every task (to see what other views do).
+        robot_visual: how the cameras draw the arm: ``mesh`` (its detailed meshes) or ``hull`` (its collision
+            meshes: the same physics, less than half the render time; see :func:`code_as_monitor.sim.robot.panda_urdf`).
     """
 
     task: str = "stack-in-order"
@@ -82,8 +84,11 @@ class ClosedLoopConfig:
     allow_unconfined: bool = False
     ablation: str = "full"
     cameras: str = "task"
+    robot_visual: str = "mesh"
 
     def __post_init__(self) -> None:
+        from code_as_monitor.sim.robot import ROBOT_VISUALS
+
         name = "ClosedLoopConfig"
         check_fields(name, type(self), {f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
         check_seed(name, self.seed)
@@ -98,6 +103,9 @@ class ClosedLoopConfig:
         ablation_fields(self.ablation)
         if not isinstance(self.cameras, str) or not self.cameras:
             raise ConfigError(f"{name}.cameras must be the name of a camera set, got {self.cameras!r}")
+        if self.robot_visual not in ROBOT_VISUALS:
+            raise ConfigError(f"{name}.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, "
+                              f"got {self.robot_visual!r}")
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""
@@ -183,7 +191,7 @@ def run_closed_loop(
     # Views are rendered when read (and before the world moves on): the oracle tracker reads poses, not
     # pixels, so its frames cost no render.
     world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True,
-                            cameras=camera_set(cfg.cameras, cfg.width, cfg.height))
+                            cameras=camera_set(cfg.cameras, cfg.width, cfg.height), robot_visual=cfg.robot_visual)
     monitor = None
     summary: dict[str, Any] = {"method": "cam", "config": asdict(cfg), "task": cfg.task, "seed": cfg.seed}
     try:

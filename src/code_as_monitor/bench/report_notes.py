@@ -22,8 +22,12 @@ def planner_phrase(backend: str) -> str:
 def cameras_note(opts: dict[str, Any]) -> str:
     """`` Cameras: ...`` for a sweep on a named camera set; "" for each task's own views (the default)."""
     cams = opts.get("cameras", "task")
-    return "" if cams == "task" else (f" Cameras: the `{cams}` set for every method (the baselines ask each question "
+    note = "" if cams == "task" else (f" Cameras: the `{cams}` set for every method (the baselines ask each question "
                                       f"on its view most like the one they want).")
+    if opts.get("robot_visual", "mesh") != "mesh":
+        note += (f" The arm drawn with its `{opts['robot_visual']}` visual (its collision meshes, not its detailed "
+                 "meshes: the same physics, a plainer and slightly larger arm in every image).")
+    return note
 
 
 def perception_note(opts: dict[str, Any]) -> str:

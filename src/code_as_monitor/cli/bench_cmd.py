@@ -72,6 +72,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         "paper's CLIPort views), front, shoulders, rlbench; recorded in every result. The baselines "
                         "ask each question on the set's view most like the one they want (steepest for top-down "
                         "questions, most level for the others)")
+    p.add_argument("--robot-visual", default="mesh",
+                   help="how the cameras draw the arm: mesh (its detailed meshes, default) or hull (its collision "
+                        "meshes: the same physics, less than half the render time, a plainer and slightly larger "
+                        "arm in every image; recorded in every result)")
     p.add_argument("--no-counterfactual", action="store_true", help="skip counterfactual rollouts")
     p.add_argument("--list", action="store_true", help="list conditions and methods")
     p.set_defaults(func=run)
@@ -101,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         backend_options.update(server_options(args))
     options = {"backend": args.backend, "backend_options": backend_options, "doremi_k_s": args.doremi_k,
                "tracker": args.tracker, "segmenter": args.segmenter, "counterfactual": not args.no_counterfactual,
-               "cameras": args.cameras, **suite.get("options", {})}
+               "cameras": args.cameras, "robot_visual": args.robot_visual, **suite.get("options", {})}
     kw: dict = {"methods": list(suite["methods"]), "conditions": list(SUITES[args.suite])}
     if args.methods:
         kw["methods"] = args.methods

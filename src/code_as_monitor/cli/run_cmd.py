@@ -49,6 +49,10 @@ def add_common(p: argparse.ArgumentParser) -> None:
                    help="camera set: task (the task's own views, default), front-top (the paper's CLIPort views), "
                         "front (the front view alone), shoulders (two views over the robot's shoulders), rlbench "
                         "(front, both shoulders, wrist)")
+    p.add_argument("--robot-visual", default="mesh",
+                   help="how the cameras draw the arm: mesh (its detailed meshes, default) or hull (its collision "
+                        "meshes: the same physics, less than half the render time, a plainer and slightly larger "
+                        "arm in every image)")
 
 
 def add_monitor_options(p: argparse.ArgumentParser, segmenter: str = "sim") -> None:
@@ -150,7 +154,7 @@ def config_from_args(args: argparse.Namespace, task: str, default_seed: int = 0,
         backend=args.backend, backend_options=backend_options_from_args(args), segmenter=args.segmenter,
         tracker=args.tracker, width=int(w), height=int(h), camera_hz=args.camera_hz, video=not args.no_video,
         max_replans=args.max_replans, deadline_s=args.deadline, allow_unconfined=args.allow_unconfined,
-        ablation=args.ablation, cameras=args.cameras,
+        ablation=args.ablation, cameras=args.cameras, robot_visual=args.robot_visual,
     )
 
 
