@@ -87,7 +87,7 @@ class ClosedLoopConfig:
     robot_visual: str = "mesh"
 
     def __post_init__(self) -> None:
-        from code_as_monitor.sim.robot import ROBOT_VISUALS
+        from code_as_monitor.sim.robot import check_robot_visual
 
         name = "ClosedLoopConfig"
         check_fields(name, type(self), {f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
@@ -103,9 +103,7 @@ class ClosedLoopConfig:
         ablation_fields(self.ablation)
         if not isinstance(self.cameras, str) or not self.cameras:
             raise ConfigError(f"{name}.cameras must be the name of a camera set, got {self.cameras!r}")
-        if self.robot_visual not in ROBOT_VISUALS:
-            raise ConfigError(f"{name}.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, "
-                              f"got {self.robot_visual!r}")
+        check_robot_visual(name, self.robot_visual)
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
         """The :class:`~code_as_monitor.agent.config.MonitorConfig` of this episode's monitor."""

@@ -76,12 +76,10 @@ class EpisodeOptions:
     robot_visual: str = "mesh"
 
     def __post_init__(self) -> None:
-        from code_as_monitor.sim.robot import ROBOT_VISUALS
+        from code_as_monitor.sim.robot import check_robot_visual
 
         check_fields("EpisodeOptions", EpisodeOptions, asdict(self))
-        if self.robot_visual not in ROBOT_VISUALS:
-            raise ConfigError(f"EpisodeOptions.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, "
-                              f"got {self.robot_visual!r}")
+        check_robot_visual("EpisodeOptions", self.robot_visual)
         for name in ("doremi_k_s", "camera_hz", "horizon_s", "deadline_s"):
             check_positive("EpisodeOptions", name, getattr(self, name))
         if self.max_replans is not None and (isinstance(self.max_replans, bool) or not isinstance(self.max_replans, int)

@@ -146,7 +146,7 @@ def carve(box: Box, views: Sequence[CarveView], support: SupportPlane | None = N
     a = int(np.argmin(ext))  # the part's thinnest axis; a surface's (its normal) is not grown: nothing to assume
     if compact and a in grow_axes and not out.hidden[:, a].any():  # a compact solid's depth: see _assume_depth
         prior = min(ext[b] for b in range(3) if b != a)
-        if _face_alone(box, a, points):
+        if face_alone(box, a, points):
             _assume_depth(out, ext, a, _interior_room(box, views, support, tol, a, step, K))
         elif ext[a] + out.grown[:, a].sum() > (1.0 + FACE_ALONE) * prior:
             _assume_depth(out, ext, a, out.grown[:, a].copy())
@@ -354,7 +354,7 @@ def open_direction(observed: Box, carved: Box, free: Box | None, grow_axes: Sequ
     return out
 
 
-def _face_alone(box: Box, a: int, points: np.ndarray | None) -> bool:
+def face_alone(box: Box, a: int, points: np.ndarray | None) -> bool:
     """Whether ``box``'s axis ``a`` is seen on one face alone: the points span along it less than
     :data:`FACE_ALONE` of the smaller of the other two extents, plus the depth noise's own span."""
     prior = min(float(box.extent[b]) for b in range(3) if b != a)
@@ -379,9 +379,9 @@ def behind_siblings(observed: Box, carved: Box, free: Box | None, points: np.nda
     extra = np.maximum(_reach(free) - carved.grown, 0.0)
     extra[(carved.hidden | carved.assumed) | (extra <= FINE_STEP)] = 0.0
     for a in range(3):
-        if not _face_alone(observed, a, points):
+        if not face_alone(observed, a, points):
             extra[:, a] = 0.0
     return replace(carved, behind=extra)
 
 
-__all__ = ["CarveView", "behind_siblings", "carve", "open_direction", "sibling_free"]
+__all__ = ["CarveView", "behind_siblings", "carve", "face_alone", "open_direction", "sibling_free"]

@@ -37,7 +37,7 @@ from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.elements import MAX_CLOUD_POINTS, Element, ElementKind, ElementSpec, ElementSupport, color_for
 from code_as_monitor.core.errors import ElementError, GeometryError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
-from code_as_monitor.geometry.carve import CarveView, behind_siblings, carve, open_direction, sibling_free
+from code_as_monitor.geometry.carve import CarveView, behind_siblings, carve, face_alone, open_direction, sibling_free
 from code_as_monitor.geometry.fusion import voxel_downsample
 from code_as_monitor.geometry.occlusion import OccluderView, robot_hidden_fraction
 from code_as_monitor.geometry.part_cloud import (
@@ -171,7 +171,9 @@ def fit_part(
     thin = int(np.argmin(seen.extent))
     grow = [a for a in range(3) if not (kind is ElementKind.SURFACE and a == thin)]
     box = carve(seen, views, support, grow, points=Q, compact=compact)
-    free = sibling_free(seen, views, support, grow, Q, compact)  # None without sibling parts
+    # None without sibling parts, or when neither reader below could use it (not a line, no axis one face alone)
+    free = sibling_free(seen, views, support, grow, Q, compact) \
+        if kind is ElementKind.LINE or any(face_alone(seen, a, Q) for a in grow) else None
     if kind is ElementKind.LINE:  # a line whose direction only its siblings' surfaces decide is weak
         box = open_direction(seen, box, free, grow)
     box = behind_siblings(seen, box, free, Q)  # how far a face may go on behind them: uncertainty, not weakness

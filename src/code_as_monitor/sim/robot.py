@@ -40,6 +40,14 @@ def pose_matrix(pos, orn) -> np.ndarray:
 ROBOT_VISUALS = ("mesh", "hull")
 
 
+def check_robot_visual(owner: str, visual: object) -> None:
+    """ConfigError naming ``owner``'s ``robot_visual`` unless it is one of :data:`ROBOT_VISUALS`."""
+    from code_as_monitor.core.errors import ConfigError
+
+    if visual not in ROBOT_VISUALS:
+        raise ConfigError(f"{owner}.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, got {visual!r}")
+
+
 def panda_urdf(visual: str = "mesh") -> str:
     """Path of the Panda URDF with the given visual geometry (what cameras see; physics is the same).
 

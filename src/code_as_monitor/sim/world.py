@@ -38,7 +38,7 @@ from code_as_monitor.sim.cameras import (
     load_egl,
 )
 from code_as_monitor.sim.events import EventLog
-from code_as_monitor.sim.robot import ROBOT_VISUALS, Panda, pose_matrix
+from code_as_monitor.sim.robot import Panda, check_robot_visual, pose_matrix
 
 ASSETS = Path(__file__).parent / "assets"
 
@@ -69,9 +69,7 @@ class WorldConfig:
             check_range("WorldConfig", side, getattr(self, side), *IMAGE_SIDE_RANGE, integer=True)
         if self.renderer not in ("tiny", "egl"):
             raise ConfigError(f"WorldConfig.renderer must be 'tiny' or 'egl', got {self.renderer!r}")
-        if self.robot_visual not in ROBOT_VISUALS:
-            raise ConfigError(f"WorldConfig.robot_visual must be one of {', '.join(ROBOT_VISUALS)}, "
-                              f"got {self.robot_visual!r}")
+        check_robot_visual("WorldConfig", self.robot_visual)
 
 
 @dataclass
