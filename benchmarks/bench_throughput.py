@@ -34,10 +34,16 @@ from code_as_monitor.bench.protocol import FULL, METHODS, SUITES, Job
 
 
 def _cpu_seconds() -> float:
-    """CPU seconds of this process and its finished children (measured here, so that the script also
-    times code whose records carry no ``cpu_time_s``: ``PYTHONPATH=<other checkout>/src``)."""
+    """CPU seconds of this process, its finished children and the sandbox's fork server where the code has
+    one (measured here, so that the script also times code whose records carry no ``cpu_time_s``:
+    ``PYTHONPATH=<other checkout>/src``)."""
+    try:
+        from code_as_monitor.monitor.forkserver import server_cpu_seconds
+    except ImportError:  # code from before the fork server: its workers are finished children
+        def server_cpu_seconds() -> float:
+            return 0.0
     t = os.times()
-    return t.user + t.system + t.children_user + t.children_system
+    return t.user + t.system + t.children_user + t.children_system + server_cpu_seconds()
 
 
 def _label(method: str, visual: str, visuals: list[str]) -> str:

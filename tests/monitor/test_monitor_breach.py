@@ -38,6 +38,7 @@ def breached():
         mp.setenv(SECRET_ENV, "hunter2-do-not-leak")
         mp.delenv("CAM_ALLOW_UNCONFINED", raising=False)
         mp.setattr(process, "_BOOT", BOOT)
+        mp.setattr(process, "SPAWN", "exec")  # a replaced boot line needs its own interpreter
         mp.setattr(sandbox_module, "validate_program", parse_only)
         with Sandbox(deadline_s=0.5, allow_unconfined=False) as sb:
             assert "seccomp" in sb.confinement and "no_new_privs" in sb.confinement, sb.confinement

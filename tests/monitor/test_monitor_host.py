@@ -35,6 +35,7 @@ MODES = [
 def evil_box():
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(process, "_BOOT", BOOT)
+        mp.setattr(process, "SPAWN", "exec")  # a replaced boot line needs its own interpreter
         with Sandbox(deadline_s=0.2) as sb:
             yield sb
 

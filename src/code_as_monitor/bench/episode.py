@@ -229,10 +229,13 @@ def _run_baseline(method: str, task: str, seed: int, params: dict[str, Any], opt
 
 
 def _cpu_seconds() -> float:
-    """CPU seconds of this process and its finished children (the monitor's sandbox workers): a cost
-    that other load on the machine does not inflate as it does wall time."""
+    """CPU seconds of this process, its finished children and the sandbox's fork server with the workers it
+    has collected (the monitor's programs): a cost that other load on the machine does not inflate as it
+    does wall time."""
+    from code_as_monitor.monitor.forkserver import server_cpu_seconds
+
     t = os.times()
-    return t.user + t.system + t.children_user + t.children_system
+    return t.user + t.system + t.children_user + t.children_system + server_cpu_seconds()
 
 
 def run_episode(job: Job, opts: EpisodeOptions, video_dir: Path | None = None) -> dict[str, Any]:

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 import code_as_monitor
+from code_as_monitor.monitor import forkserver
 from code_as_monitor.monitor.protocol import ReplyError, clean_text
 
 _BOOT = ("import time; t0 = time.perf_counter(); import sys; sys.path.insert(0, sys.argv[1]); "
@@ -32,6 +33,12 @@ _BOOT = ("import time; t0 = time.perf_counter(); import sys; sys.path.insert(0, 
 _SRC_ROOT = str(Path(code_as_monitor.__file__).resolve().parent.parent)
 _WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                "PATH": os.defpath, "LC_ALL": "C.UTF-8"}
+SPAWN_ENV = "CAM_SANDBOX_SPAWN"
+SPAWNS = ("fork", "exec")
+SPAWN = os.environ.get(SPAWN_ENV, "fork")
+"""How workers start: ``fork`` (default) from this process's fork server (:mod:`.forkserver`: one clean
+interpreter that imported and warmed up the worker once), ``exec`` a fresh interpreter each (about 0.15
+CPU-seconds more per worker; what a replaced :data:`_BOOT` line needs). Set by ``CAM_SANDBOX_SPAWN``."""
 _HEADER = struct.Struct("!i")
 _POLLIN = select.POLLIN | select.POLLERR | select.POLLHUP
 _POLLOUT = select.POLLOUT | select.POLLERR | select.POLLHUP
@@ -65,13 +72,20 @@ class WorkerProcess:
         parent, child = socket.socketpair()
         self.stderr = tempfile.TemporaryFile(prefix="cam-worker-")  # noqa: SIM115 (closed by reap)
         self.started = time.perf_counter()
+        if SPAWN not in SPAWNS:
+            raise OSError(f"{SPAWN_ENV} must be one of {', '.join(SPAWNS)}, got {SPAWN!r}")
         try:
-            self.proc = subprocess.Popen(
-                [sys.executable, "-I", "-c", _BOOT, _SRC_ROOT, str(child.fileno()), str(memory_mb), str(cpu_s),
-                 str(int(confine))],
-                pass_fds=(child.fileno(),), env=_WORKER_ENV, stdin=subprocess.DEVNULL,
-                stdout=subprocess.DEVNULL, stderr=self.stderr, close_fds=True,
-            )
+            if SPAWN == "fork":
+                server = forkserver.shared_server(_WORKER_ENV, _SRC_ROOT)
+                self.proc: subprocess.Popen[bytes] | forkserver.ForkedProcess = server.spawn(
+                    child.fileno(), self.stderr.fileno(), memory_mb, cpu_s, confine)
+            else:
+                self.proc = subprocess.Popen(
+                    [sys.executable, "-I", "-c", _BOOT, _SRC_ROOT, str(child.fileno()), str(memory_mb), str(cpu_s),
+                     str(int(confine))],
+                    pass_fds=(child.fileno(),), env=_WORKER_ENV, stdin=subprocess.DEVNULL,
+                    stdout=subprocess.DEVNULL, stderr=self.stderr, close_fds=True,
+                )
         except OSError:
             parent.close()
             self.stderr.close()

@@ -205,7 +205,7 @@ def _flags(info: Any) -> int:
             | (protocol.USER_NS if info.user_ns else 0) | (protocol.NET_NS if info.net_ns else 0))
 
 
-def main(fd: int, memory_mb: int, cpu_s: int, want_confinement: int, t_boot: float) -> None:
+def main(fd: int, memory_mb: int, cpu_s: int, want_confinement: int, t_boot: float, warmed: bool = False) -> None:
     """Worker entry point: confine, then serve requests on socket ``fd`` until EOF or ``("exit",)``.
 
     Args:
@@ -213,14 +213,17 @@ def main(fd: int, memory_mb: int, cpu_s: int, want_confinement: int, t_boot: flo
         memory_mb: address space allowed beyond the size after start-up, MiB.
         cpu_s: lifetime CPU seconds.
         want_confinement: 1 to install the confinement, 0 to skip it (the caller opted out).
-        t_boot: ``time.perf_counter()`` when the interpreter started running the boot line.
+        t_boot: ``time.perf_counter()`` when the interpreter started running the boot line (a forked
+            worker: when it was forked).
+        warmed: the namespace was already exercised (a worker forked from the fork server, which did it once).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the control process's business
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a full stderr file fails the write, not the worker
     warnings.simplefilter("ignore")
     np.seterr(all="ignore")
     conn = Connection(fd)
-    warm_up()
+    if not warmed:
+        warm_up()
     seccomp = load_seccomp() if want_confinement else None  # imports (and finds libseccomp) before the limits
     _set_limits(memory_mb, cpu_s)
     sys.setrecursionlimit(RECURSION_LIMIT)
