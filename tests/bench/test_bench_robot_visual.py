@@ -1,5 +1,6 @@
-"""``--robot-visual``: how the cameras draw the arm (``hull``, its collision meshes: a fidelity-for-speed setting)
-reaches every method's world, the records, their ``cam run`` commands and the report; a bad name is refused."""
+"""``--robot-visual``: how the cameras draw the arm (``decimated`` by default; ``mesh``, the full meshes; ``hull``,
+its collision meshes) reaches every method's world, the records, their ``cam run`` commands and the report; a bad
+name is refused; every default is the simulator's."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ def loaded(monkeypatch) -> list[str]:
     seen: list[str] = []
     real = robot_module.panda_urdf
 
-    def spy(visual: str = "mesh") -> str:
+    def spy(visual: str = robot_module.DEFAULT_ROBOT_VISUAL) -> str:
         seen.append(visual)
         return real(visual)
 
@@ -42,14 +43,29 @@ def test_every_method_draws_the_arm_as_asked_and_a_cam_record_says_so(method, lo
     assert "--robot-visual" not in run_command("stack-in-order", 1, {}, EpisodeOptions().to_dict())
 
 
-def test_the_report_names_a_hull_arm_and_says_nothing_of_the_default():
+def test_a_record_from_before_the_field_replays_with_the_full_mesh():
+    old = {k: v for k, v in EpisodeOptions().to_dict().items() if k != "robot_visual"}
+    assert "--robot-visual mesh" in run_command("stack-in-order", 1, {}, old)
+    assert "--robot-visual mesh" in run_command("stack-in-order", 1, {}, EpisodeOptions(robot_visual="mesh").to_dict())
+
+
+def test_every_default_is_the_simulators():
+    parse = build_parser().parse_args
+    assert (EpisodeOptions().robot_visual == ClosedLoopConfig().robot_visual
+            == run_cmd.config_from_args(parse(["run", "stack-in-order"]), "stack-in-order").robot_visual
+            == parse(["bench"]).robot_visual == robot_module.DEFAULT_ROBOT_VISUAL == "decimated")
+
+
+def test_the_report_names_the_arm_it_drew():
     def first_line(options: dict) -> str:
         summary = {"methods": [], "conditions": [], "cells": {}, "records": [], "wall_s": 0.0, "options": options,
                    "versions": {}, "ignored": []}
         return markdown(summary, with_paper=False).splitlines()[0]
 
     assert "collision meshes" in first_line(EpisodeOptions(robot_visual="hull").to_dict())
-    assert "collision meshes" not in first_line(EpisodeOptions().to_dict())
+    assert "decimated meshes" in first_line(EpisodeOptions().to_dict())
+    assert "full detailed meshes" in first_line({k: v for k, v in EpisodeOptions().to_dict().items()
+                                                 if k != "robot_visual"})
 
 
 def test_a_bad_visual_is_refused_by_name_and_the_flag_reaches_the_config():
@@ -58,6 +74,6 @@ def test_a_bad_visual_is_refused_by_name_and_the_flag_reaches_the_config():
     with pytest.raises(ConfigError, match="'shiny'"):
         ClosedLoopConfig(robot_visual="shiny")
     parse = build_parser().parse_args
-    assert run_cmd.config_from_args(parse(["run", "stack-in-order"]), "stack-in-order").robot_visual == "mesh"
+    assert run_cmd.config_from_args(parse(["run", "stack-in-order"]), "stack-in-order").robot_visual == "decimated"
     cfg = run_cmd.config_from_args(parse(["run", "stack-in-order", "--robot-visual", "hull"]), "stack-in-order")
     assert cfg.robot_visual == "hull"

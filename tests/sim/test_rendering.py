@@ -89,12 +89,13 @@ def test_save_state_renders_the_current_views_first(env):
     np.testing.assert_array_equal(obs.views["front"].rgb, reference)
 
 
-def test_hull_robot_visual_renders_the_same_scene_cheaper_geometry():
+@pytest.mark.parametrize("visual", ["hull", "decimated"])
+def test_a_cheaper_robot_visual_renders_the_same_scene(visual):
     with pytest.raises(ConfigError, match="robot_visual"):
         WorldConfig(robot_visual="wireframe")
-    assert panda_urdf("hull") == panda_urdf("hull")  # cached once
-    mesh = make_env("stack-in-order", seed=4, disturbed=False)
-    hull = make_env("stack-in-order", seed=4, disturbed=False, world_config=WorldConfig(robot_visual="hull"))
+    assert panda_urdf(visual) == panda_urdf(visual)  # cached once
+    mesh = make_env("stack-in-order", seed=4, disturbed=False, world_config=WorldConfig(robot_visual="mesh"))
+    hull = make_env("stack-in-order", seed=4, disturbed=False, world_config=WorldConfig(robot_visual=visual))
     try:
         a, b = mesh.world.observe().views["top"], hull.world.observe().views["top"]
         for name in ("red_block", "green_block", "blue_block"):
@@ -125,3 +126,34 @@ def test_one_instant_is_rendered_once_and_any_motion_renders_anew(env):
     _step(env, 1)
     w.observe(eager=True)
     assert w.frames_rendered == 6
+
+
+def test_the_decimated_arm_looks_like_the_full_one_mid_pick():
+    """The same instants drawn with the full and the decimated meshes: the arm's outline moves by under a pixel
+    (measured: 0.6 % of the arm's pixels change label; the collision-mesh hull changes 10 %) and its colours stay
+    (mean absolute RGB difference on the arm about 3 of 255; the hull's 25)."""
+    envs = {v: make_env("stack-in-order", seed=0, disturbed=False, world_config=WorldConfig(robot_visual=v))
+            for v in ("mesh", "decimated")}
+    try:
+        changed, arm_px, rgb = 0, 0, []
+        for e in envs.values():
+            e.policy.start(e.plan[0])
+        for k in range(1, 121):
+            for e in envs.values():
+                e.policy.step()
+            if k % 40:
+                continue
+            a, b = (envs[v].world.observe(eager=True) for v in ("mesh", "decimated"))
+            for name in a.views:
+                va, vb = a.views[name], b.views[name]
+                ia, ib = va.mask_of("robot"), vb.mask_of("robot")
+                changed += int((va.seg != vb.seg).sum())
+                arm_px += int((ia | ib).sum())
+                both = ia & ib
+                rgb.append(np.abs(va.rgb.astype(int) - vb.rgb.astype(int))[both].mean())
+        assert arm_px > 0
+        assert changed / arm_px < 0.02
+        assert float(np.mean(rgb)) < 10.0
+    finally:
+        for e in envs.values():
+            e.close()

@@ -62,8 +62,9 @@ class ClosedLoopConfig:
             ``mv-off``, ``cs-off``, ``cp-off``, ``reactive-only``, ``proactive-only``).
         cameras: a named camera set (:data:`code_as_monitor.sim.cameras.CAMERA_SETS`): ``task`` the task's own views,
             or ``front-top``, ``front``, ``shoulders``, ``rlbench`` for every task (to see what other views do).
-        robot_visual: how the cameras draw the arm: ``mesh`` (its detailed meshes) or ``hull`` (its collision
-            meshes: the same physics, less than half the render time; see :func:`code_as_monitor.sim.robot.panda_urdf`).
+        robot_visual: how the cameras draw the arm: ``decimated`` (its detailed meshes with a fifth of their
+            triangles, the default), ``mesh`` (the detailed meshes) or ``hull`` (its collision meshes); the same
+            physics (see :func:`code_as_monitor.sim.robot.panda_urdf`).
     """
 
     task: str = "stack-in-order"
@@ -84,7 +85,7 @@ class ClosedLoopConfig:
     allow_unconfined: bool = False
     ablation: str = "full"
     cameras: str = "task"
-    robot_visual: str = "mesh"
+    robot_visual: str = "decimated"  # sim.robot.DEFAULT_ROBOT_VISUAL
 
     def __post_init__(self) -> None:
         from code_as_monitor.sim.robot import check_robot_visual

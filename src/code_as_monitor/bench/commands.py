@@ -50,8 +50,9 @@ def run_command(task: str, episode_seed: int, params: dict[str, Any], options: d
               "--deadline", f"{float(options.get('deadline_s', cfg.deadline_s)):g}"]
     if options.get("cameras", "task") != "task":
         words += ["--cameras", str(options["cameras"])]
-    if options.get("robot_visual", "mesh") != "mesh":
-        words += ["--robot-visual", str(options["robot_visual"])]
+    visual = options.get("robot_visual", "mesh")  # a record without the field drew the full mesh
+    if visual != "decimated":
+        words += ["--robot-visual", str(visual)]
     if ablation != "full":
         words += ["--ablation", ablation]
     if options.get("backend_options"):

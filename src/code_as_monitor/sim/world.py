@@ -38,7 +38,7 @@ from code_as_monitor.sim.cameras import (
     load_egl,
 )
 from code_as_monitor.sim.events import EventLog
-from code_as_monitor.sim.robot import Panda, check_robot_visual, pose_matrix
+from code_as_monitor.sim.robot import DEFAULT_ROBOT_VISUAL, Panda, check_robot_visual, pose_matrix
 
 ASSETS = Path(__file__).parent / "assets"
 
@@ -54,7 +54,7 @@ class WorldConfig:
     height: int = 240
     cameras: list[CameraSpec] | None = None
     renderer: str = "tiny"  # "tiny" (CPU, always available) or "egl" (falls back to tiny if it fails)
-    robot_visual: str = "mesh"  # what cameras see of the arm: "mesh" (detailed) or "hull" (see sim.robot.panda_urdf)
+    robot_visual: str = DEFAULT_ROBOT_VISUAL  # what cameras see of the arm: decimated, mesh or hull (see panda_urdf)
     defer_render: bool = False  # observe() returns views rendered when first read (see World.observe)
 
     def __post_init__(self) -> None:
