@@ -82,6 +82,7 @@ def main() -> None:
     args = ap.parse_args()
     figures: list[tuple[str, float, str]] = []
     for label, mode, visual in (("sim_realtime_factor", "eager", "mesh"),
+                                ("sim_realtime_factor_decimated", "eager", "decimated"),
                                 ("sim_realtime_factor_hull", "eager", "hull"),
                                 ("sim_realtime_factor_deferred", "deferred", "mesh"),
                                 ("sim_realtime_factor_no_render", "none", "mesh")):
@@ -91,7 +92,8 @@ def main() -> None:
     ref = render_ms("tiny", args.renders)
     assert ref is not None
     figures.append(("render_tiny_320x240", ref, "ms"))
-    for name, kw in (("render_tiny_hull_320x240", {"robot_visual": "hull"}),
+    for name, kw in (("render_tiny_decimated_320x240", {"robot_visual": "decimated"}),
+                     ("render_tiny_hull_320x240", {"robot_visual": "hull"}),
                      ("render_tiny_noseg_320x240", {"seg": False}),
                      ("render_tiny_640x480", {"size": (640, 480)}),
                      ("render_tiny_160x120", {"size": (160, 120)}),

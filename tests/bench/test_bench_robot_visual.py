@@ -77,3 +77,15 @@ def test_a_bad_visual_is_refused_by_name_and_the_flag_reaches_the_config():
     assert run_cmd.config_from_args(parse(["run", "stack-in-order"]), "stack-in-order").robot_visual == "decimated"
     cfg = run_cmd.config_from_args(parse(["run", "stack-in-order", "--robot-visual", "hull"]), "stack-in-order")
     assert cfg.robot_visual == "hull"
+
+
+def test_a_file_from_before_the_field_ran_with_the_full_mesh_and_resumes_only_so():
+    from code_as_monitor.bench.runner import _check_options
+
+    old = {k: v for k, v in EpisodeOptions().to_dict().items() if k != "robot_visual"}
+    assert EpisodeOptions.of_file(old).robot_visual == "mesh"
+    assert EpisodeOptions.of_file({**old, "robot_visual": "hull"}).robot_visual == "hull"
+    lines = [{"kind": "bench_start", "options": old}]
+    with pytest.raises(ConfigError, match="add --robot-visual mesh"):
+        _check_options(lines, EpisodeOptions().to_dict())
+    _check_options(lines, EpisodeOptions(robot_visual="mesh").to_dict())  # the same options: resumes

@@ -94,6 +94,17 @@ class EpisodeOptions:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    @classmethod
+    def of_file(cls, options: dict[str, Any]) -> EpisodeOptions:
+        """The options a results file's ``bench_start`` line names, a field missing there taking the value it
+        had before it existed (:data:`BEFORE_THE_FIELD`), else today's default."""
+        return cls(**{**BEFORE_THE_FIELD, **options})
+
+
+BEFORE_THE_FIELD: dict[str, Any] = {"robot_visual": "mesh"}
+"""Options whose default changed after they were recorded: what a file or record without the field ran with
+(the arm was drawn with its full meshes until the decimated arm became the default, 2026-12-02)."""
+
 
 def _compact_gt(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out = []

@@ -84,7 +84,7 @@ def reproduce(results: str | Path, key: str, video_dir: Path | None = None) -> R
     """Re-run record ``key`` of ``results`` with the file's method options; compare (see :func:`compare`)."""
     options, rec = find_record(results, key)
     condition, method, seed, episode = parse_key(key)
-    opts = EpisodeOptions(**options)
+    opts = EpisodeOptions.of_file(options)
     new = run_episode(Job(method=method, condition=condition, seed=seed, episode=episode), opts, video_dir)
     if new.get("error"):
         raise RunError(f"re-run of {key} failed: {new['error']}")

@@ -90,14 +90,17 @@ def record_key(r: dict[str, Any]) -> tuple[str, str, int, int]:
 def _check_options(lines: list[dict[str, Any]], opts: dict[str, Any]) -> None:
     """ConfigError unless every session of the file ran with ``opts``; an option added since a file was made
     counts as its default there (a file from before ``cameras`` ran on each task's own views)."""
-    defaults = EpisodeOptions().to_dict()
     for r in lines:
-        made = {**defaults, **(r.get("options") or {})}
-        if r.get("kind") == "bench_start" and made != opts:
+        if r.get("kind") != "bench_start":
+            continue
+        made = EpisodeOptions.of_file(r.get("options") or {}).to_dict()
+        if made != opts:
             differ = "; ".join(f"{k}: {made.get(k)!r} in the file, {opts.get(k)!r} now"
                                for k in sorted(set(made) | set(opts)) if made.get(k) != opts.get(k))
             hint = (f" (add --tracker {made.get('tracker')}: `cam bench` tracked with the oracle `sim` by default "
-                    "until 2026-11-29, with `depth` since)" if made.get("tracker") != opts.get("tracker") else "")
+                    "until 2026-11-29, with `depth` since)" if made.get("tracker") != opts.get("tracker") else
+                    f" (add --robot-visual {made.get('robot_visual')}: the arm was drawn with its full meshes until "
+                    "2026-12-02, decimated since)" if made.get("robot_visual") != opts.get("robot_visual") else "")
             raise ConfigError(f"the results file was made with other method options ({differ}); use another "
                               f"--results file or the same options{hint}")
 

@@ -43,7 +43,7 @@ SPAWN_TIMEOUT_S = 30.0
 
 
 # --- the server (runs in its own interpreter) -------------------------------------------------------
-def serve(fd: int, parent: int, t_boot: float) -> None:
+def serve(fd: int, parent: int) -> None:
     """Server entry point: arm the death signal, import and warm up the worker once, then fork workers on
     request from socket ``fd`` until the control process (pid ``parent``) closes it."""
     import ctypes
@@ -192,9 +192,8 @@ class ForkServer:
 
     def __init__(self, env: dict[str, str], src_root: str) -> None:
         parent, child = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        boot = ("import time; t0 = time.perf_counter(); import sys; sys.path.insert(0, sys.argv[1]); "
-                "from code_as_monitor.monitor.forkserver import serve; "
-                "serve(int(sys.argv[2]), int(sys.argv[3]), t0)")
+        boot = ("import sys; sys.path.insert(0, sys.argv[1]); from code_as_monitor.monitor.forkserver import serve; "
+                "serve(int(sys.argv[2]), int(sys.argv[3]))")
         try:
             self.proc = subprocess.Popen(
                 [sys.executable, "-I", "-c", boot, src_root, str(child.fileno()), str(os.getpid())],
