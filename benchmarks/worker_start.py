@@ -27,9 +27,7 @@ from code_as_monitor.monitor.process import _SRC_ROOT, _WORKER_ENV, WorkerProces
 
 def _server_children_cpu() -> float:
     s = forkserver.shared_server(_WORKER_ENV, _SRC_ROOT)
-    with open(f"/proc/{s.pid}/stat", "rb") as f:
-        fields = f.read().rsplit(b")", 1)[1].split()
-    return (int(fields[13]) + int(fields[14])) / os.sysconf("SC_CLK_TCK")
+    return forkserver.proc_cpu_seconds(s.pid, collected=True) - forkserver.proc_cpu_seconds(s.pid)
 
 
 def _own_children_cpu() -> float:

@@ -46,10 +46,9 @@ SPAWN_TIMEOUT_S = 30.0
 def serve(fd: int, parent: int) -> None:
     """Server entry point: arm the death signal, import and warm up the worker once, then fork workers on
     request from socket ``fd`` until the control process (pid ``parent``) closes it."""
-    import ctypes
+    from code_as_monitor.monitor.confine import PR_SET_PDEATHSIG, _libc
 
-    libc = ctypes.CDLL(None, use_errno=True)
-    libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG: die with the thread that started us
+    _libc().prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)  # die with the thread that started us
     if os.getppid() != parent:
         os._exit(0)
     from code_as_monitor.monitor import worker
@@ -328,15 +327,22 @@ def shared_server(env: dict[str, str], src_root: str) -> ForkServer:
         return got
 
 
+def proc_cpu_seconds(pid: int, collected: bool = False) -> float:
+    """CPU seconds (user + system) process ``pid`` has used, from ``/proc/<pid>/stat``, with ``collected`` those of
+    the children it has waited for too; NaN where that cannot be read (not Linux, or the process is gone)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            fields = f.read().rsplit(b")", 1)[1].split()  # utime stime cutime cstime are fields 14-17
+        return sum(int(x) for x in fields[11:15 if collected else 13]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
 def server_cpu_seconds() -> float:
     """CPU seconds used so far by this process's fork server and the workers it has collected (0 when there
     is none): what ``os.times()``'s children fields cannot count, since the server has not exited."""
     s = _server
     if s is None or s.owner_pid != os.getpid() or s.dead:
         return 0.0
-    try:
-        with open(f"/proc/{s.pid}/stat", "rb") as f:
-            fields = f.read().rsplit(b")", 1)[1].split()
-        return sum(int(x) for x in fields[11:15]) / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return 0.0
+    cpu = proc_cpu_seconds(s.pid, collected=True)
+    return 0.0 if cpu != cpu else cpu

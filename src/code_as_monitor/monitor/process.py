@@ -213,12 +213,7 @@ class WorkerProcess:
     def cpu_seconds(self) -> float:
         """CPU seconds (user + system) the worker has used so far, from ``/proc/<pid>/stat``; NaN where
         that cannot be read (not Linux, or the process is gone)."""
-        try:
-            with open(f"/proc/{self.pid}/stat", "rb") as f:
-                fields = f.read().rsplit(b")", 1)[1].split()
-            return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-        except (OSError, ValueError, IndexError):
-            return math.nan
+        return forkserver.proc_cpu_seconds(self.pid)
 
     def how_it_ended(self, wait_s: float = 0.0) -> str:
         """"killed by SIGSEGV", "exit code 1", or "still running" (after waiting up to ``wait_s`` for it
