@@ -58,10 +58,10 @@ def panda_urdf(visual: str = DEFAULT_ROBOT_VISUAL) -> str:
     ``"mesh"``: ``pybullet_data``'s own file, its detailed visual meshes (about 100k triangles, two
     thirds of a 320x240 TinyRenderer frame's cost). ``"decimated"`` (the default): the same meshes with
     about a fifth of their triangles (:mod:`code_as_monitor.sim.robot_meshes`; their colours and materials
-    kept; measured by ``benchmarks/sim_speed.py``: under 1 % of the arm's pixels change label, about 40 %
-    less render time). ``"hull"``: the same robot drawn with its collision meshes (about 3k triangles,
+    kept; measured by ``benchmarks/robot_visual_fidelity.py``: under 1 % of the arm's pixels change label,
+    about 40 % less render time). ``"hull"``: the same robot drawn with its collision meshes (about 3k triangles,
     plain white). The two variants are files written once to a cache directory (the temporary directory),
-    with absolute mesh paths.
+    with absolute mesh paths; a process finds its file again without re-reading the sources.
     """
     import hashlib
     import os
@@ -77,6 +77,9 @@ def panda_urdf(visual: str = DEFAULT_ROBOT_VISUAL) -> str:
     urdf = os.path.join(root, "panda.urdf")
     if visual == "mesh":
         return urdf
+    known = _URDF_PATHS.get((visual, tempfile.gettempdir()))
+    if known is not None and os.path.exists(known):
+        return known
     with open(urdf, encoding="utf-8") as fh:
         text = fh.read()
     if visual == "hull":
@@ -96,7 +99,13 @@ def panda_urdf(visual: str = DEFAULT_ROBOT_VISUAL) -> str:
         with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
         os.replace(tmp, path)  # atomic: concurrent workers write the same bytes
+    _URDF_PATHS[(visual, tempfile.gettempdir())] = path
     return path
+
+
+_URDF_PATHS: dict[tuple[str, str], str] = {}
+"""(visual, temporary directory) -> the variant URDF this process wrote or found (hashing the 9 MB of source
+meshes again for every world would cost about 8 ms per world)."""
 
 
 class Panda:
