@@ -22,6 +22,7 @@ import numpy as np
 from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import View
+from code_as_monitor.sim.backdrop import Backdrop, compose, for_client, raw_images
 
 # OpenCV camera axes -> OpenGL camera axes (x right, y up, z backward).
 _CV_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -181,6 +182,9 @@ class SimCamera:
     client: int
     renderer: str = "tiny"
     mount_pose: MountPose | None = None
+    backdrop: Backdrop | None = None
+    """The table rendered apart and composed under each TinyRenderer frame (:mod:`.backdrop`); by default the one
+    registered for ``client`` by its world (none: the client's own render is the frame, the table drawn in it)."""
     camera: CameraModel = field(init=False)
     _view: list[float] = field(init=False)
     _proj: list[float] = field(init=False)
@@ -195,6 +199,8 @@ class SimCamera:
                               f"{'needs' if self.mount_pose is None else 'takes no'} mount_pose")
         if self.renderer not in RENDERERS:
             raise ConfigError(f"unknown renderer {self.renderer!r}; choose one of: {', '.join(RENDERERS)}")
+        if self.backdrop is None:
+            self.backdrop = for_client(self.client)
         self.camera = shifted_principal_point(self.spec.model(), *PIXEL_SHIFT[self.renderer])
         if self.mount_pose is not None:
             self._T_mount_cam = self.camera.T_world_cam.copy()
@@ -246,18 +252,24 @@ class SimCamera:
         import pybullet as pb
 
         s = self.spec
-        flags = pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX
-        r = pb.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else pb.ER_TINY_RENDERER
-        _, _, rgba, zbuf, seg = pb.getCameraImage(
-            s.width, s.height, viewMatrix=view_matrix, projectionMatrix=self._proj, renderer=r, flags=flags,
-            shadow=0, physicsClientId=self.client,
-        )
+        if self.renderer == "egl":
+            _, _, rgba, zbuf, seg = pb.getCameraImage(
+                s.width, s.height, viewMatrix=view_matrix, projectionMatrix=self._proj,
+                renderer=pb.ER_BULLET_HARDWARE_OPENGL, flags=pb.ER_SEGMENTATION_MASK_OBJECT_AND_LINKINDEX,
+                shadow=0, physicsClientId=self.client,
+            )
+            raw = (np.reshape(np.asarray(rgba, dtype=np.uint8), (s.height, s.width, 4)),
+                   np.reshape(np.asarray(zbuf, dtype=np.float64), (s.height, s.width)),
+                   np.reshape(np.asarray(seg, dtype=np.int64), (s.height, s.width)).astype(np.int32))
+        else:
+            raw = raw_images(self.client, s.width, s.height, view_matrix, self._proj)
+            if self.backdrop is not None:
+                raw = compose(raw, self.backdrop.images(s.width, s.height, view_matrix, self._proj))
         self.frames += 1
-        rgb = np.ascontiguousarray(np.reshape(np.asarray(rgba, dtype=np.uint8), (s.height, s.width, 4))[:, :, :3])
-        z = np.reshape(np.asarray(zbuf, dtype=np.float64), (s.height, s.width))
+        rgba_img, z, seg_img = raw
+        rgb = np.ascontiguousarray(rgba_img[:, :, :3])
         depth = (s.far * s.near / (s.far - (s.far - s.near) * z)).astype(np.float32)
         depth[z >= 1.0 - 1e-7] = 0.0
-        seg_img = np.reshape(np.asarray(seg, dtype=np.int64), (s.height, s.width)).astype(np.int32)
         return rgb, depth, seg_img
 
 

@@ -29,6 +29,9 @@ from code_as_monitor.core.checks import (
 )
 from code_as_monitor.core.errors import ConfigError, SimError
 from code_as_monitor.core.observation import Observation, RobotState, View
+from code_as_monitor.sim.backdrop import Backdrop
+from code_as_monitor.sim.backdrop import register as register_backdrop
+from code_as_monitor.sim.backdrop import unregister as unregister_backdrop
 from code_as_monitor.sim.cameras import (
     CameraSpec,
     Images,
@@ -41,6 +44,8 @@ from code_as_monitor.sim.events import EventLog
 from code_as_monitor.sim.robot import DEFAULT_ROBOT_VISUAL, Panda, check_robot_visual, pose_matrix
 
 ASSETS = Path(__file__).parent / "assets"
+TABLE_POSITION = (0.3, 0.0, 0.0)
+"""The table's base position (m): its 1.6 x 1.6 m top is the plane z = 0."""
 
 
 @dataclass
@@ -56,6 +61,7 @@ class WorldConfig:
     renderer: str = "tiny"  # "tiny" (CPU, always available) or "egl" (falls back to tiny if it fails)
     robot_visual: str = DEFAULT_ROBOT_VISUAL  # what cameras see of the arm: decimated, mesh or hull (see panda_urdf)
     defer_render: bool = False  # observe() returns views rendered when first read (see World.observe)
+    backdrop: bool = True  # TinyRenderer: the table rendered once per camera pose and composed (sim.backdrop)
 
     def __post_init__(self) -> None:
         check_count("WorldConfig", "physics_hz", self.physics_hz, 1)
@@ -117,13 +123,19 @@ class World:
         self.renderer = cfg.renderer  # the plugin must load before any body so it sees every visual
         if cfg.renderer == "egl" and not load_egl(c):
             self.renderer = "tiny"
-        table = pb.loadURDF(str(ASSETS / "table.urdf"), [0.3, 0, 0], useFixedBase=True, physicsClientId=c)
+        table = pb.loadURDF(str(ASSETS / "table.urdf"), TABLE_POSITION, useFixedBase=True, physicsClientId=c)
         pb.changeDynamics(table, -1, lateralFriction=0.6, restitution=0.0, physicsClientId=c)
         self.add_object("table", [table], whole=[(table, -1)])
+        self.backdrop: Backdrop | None = None
+        if self.renderer == "tiny" and cfg.backdrop:  # the client's renders skip the table; the backdrop has it
+            self.backdrop = Backdrop(ASSETS / "table.urdf", TABLE_POSITION, encode_seg_id(table, -1))
+            register_backdrop(c, self.backdrop)
+            rgba = pb.getVisualShapeData(table, physicsClientId=c)[0][7]
+            pb.changeVisualShape(table, -1, rgbaColor=[*rgba[:3], 0.0], physicsClientId=c)
         self.robot = Panda(c, ee_kind=ee, visual=cfg.robot_visual)
         specs = cfg.cameras if cfg.cameras is not None else default_cameras(cfg.width, cfg.height)
-        self.cameras = [SimCamera(s, c, self.renderer, self.robot.grasp_pose if s.mount == "wrist" else None)
-                        for s in specs]
+        self.cameras = [SimCamera(s, c, self.renderer, self.robot.grasp_pose if s.mount == "wrist" else None,
+                                  self.backdrop) for s in specs]
 
     # --- objects ------------------------------------------------------------------------------------
     def add_object(self, name: str, bodies: list[int], parts: dict[str, tuple[int, int]] | None = None,
@@ -365,8 +377,11 @@ class World:
         import pybullet as pb
 
         if self.client >= 0:
+            unregister_backdrop(self.client)
             pb.disconnect(physicsClientId=self.client)
             self.client = -1
+        if self.backdrop is not None:
+            self.backdrop.close()
         self.events.close()
 
     def __enter__(self) -> World:
