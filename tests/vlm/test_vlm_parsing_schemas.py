@@ -104,7 +104,7 @@ def test_usage_meter_per_subgoal_and_episode():
 
 def test_prompt_templates():
     assert placeholders("constraint_generator") == {"skills"}
-    # v4: one line saying the annotated views follow, filled only when the coder sends them (views=True)
+    # v4 on: one line saying the annotated views follow, filled only when the coder sends them (views=True)
     assert placeholders("monitor_coder") == {"image"}
     assert placeholders("monitor_coder", "v3") == set()
     coder = load_template("monitor_coder")

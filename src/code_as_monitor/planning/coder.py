@@ -43,7 +43,7 @@ PURPOSE = "monitor_coder"
 PROGRAM_SCHEMA = program_json_schema()
 """The structured answer's JSON schema (``{"program": source}``), for servers with structured outputs."""
 IMAGE_LINE = " Image: the views, each element drawn with its id."
-"""What the coder's system prompt (v4) says of the image, when the annotated views are sent."""
+"""What the coder's system prompt (v4 on) says of the image, when the annotated views are sent."""
 
 
 def program_text(answer: str) -> str:

@@ -12,7 +12,7 @@ from importlib import resources
 
 from code_as_monitor.core.errors import ConfigError
 
-PROMPT_VERSION = "v4"
+PROMPT_VERSION = "v5"
 _PLACEHOLDER = re.compile(r"\{\{([a-z_]+)\}\}")
 
 

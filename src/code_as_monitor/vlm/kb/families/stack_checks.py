@@ -20,8 +20,8 @@ def attached(c: Spec) -> str:
     dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
     margin = np.max([{md} - d, np.min([{rxy} - off, dz - {lo}, {hi} - dz])])
     if d <= {md} or (off <= {rxy} and dz >= {lo} and dz <= {hi}):
-        return True, {lit(xn + " is on the suction cup or was released onto " + tn + " (%.3f m from the tip)")} % d, margin
-    return False, {lit(xn + " dropped: detached from the suction cup (%.3f m from the tip) before resting on " + tn)} % d, margin
+        return True, {lit(xn + " held or on " + tn + " (%.3f m from the tip)")} % d, margin
+    return False, {lit(xn + " dropped: %.3f m from the tip, not on " + tn)} % d, margin
 """
     return check_fn(c, body)
 
@@ -33,8 +33,8 @@ def still(c: Spec) -> str:
     body = f"""
     m = displacement(H[{tgt}])
     if m <= {mx}:
-        return True, {lit(tn + " stays in place (moved %.3f m)")} % m, {mx} - m
-    return False, {lit(tn + " moved %.3f m: the tower below is disturbed and stacking on it will topple")} % m, {mx} - m
+        return True, {lit(tn + " in place (moved %.3f m)")} % m, {mx} - m
+    return False, {lit(tn + " moved %.3f m: stacking on it will topple")} % m, {mx} - m
 """
     return check_fn(c, body)
 
@@ -46,8 +46,8 @@ def centred(c: Spec) -> str:
     body = f"""
     off = horizontal_distance(E[{x}], E[{tgt}])
     if off <= {mo}:
-        return True, {lit(xn + " is centred on " + tn + " (offset %.3f m)")} % off, {mo} - off
-    return False, {lit(xn + " is offset %.3f m from the centre of " + tn + " (limit " + mo + "): stacking on it will topple")} % off, {mo} - off
+        return True, {lit(xn + " centred on " + tn + " (offset %.3f m)")} % off, {mo} - off
+    return False, {lit(xn + " offset %.3f m from " + tn + " (limit " + mo + "): the tower will topple")} % off, {mo} - off
 """
     return check_fn(c, body)
 
@@ -60,8 +60,8 @@ def resting(c: Spec) -> str:
     dz = centroid(E[{x}])[2] - centroid(E[{tgt}])[2]
     margin = np.min([dz - {lo}, {hi} - dz])
     if dz >= {lo} and dz <= {hi}:
-        return True, {lit(xn + " rests on " + tn + " (%.3f m above its centre)")} % dz, margin
-    return False, {lit(xn + " is not resting on " + tn + ": its centre is %.3f m above the centre of " + tn + " (expected " + lo + " to " + hi + ")")} % dz, margin
+        return True, {lit(xn + " rests on " + tn + " (dz %.3f m)")} % dz, margin
+    return False, {lit(xn + " not resting on " + tn + ": dz %.3f m, not " + lo + " to " + hi)} % dz, margin
 """
     return check_fn(c, body)
 
@@ -78,8 +78,8 @@ def released(c: Spec) -> str:
     gap = d - np.min(np.linalg.norm(H[{x}].mean(axis=1) - H[{tip}].mean(axis=1), axis=1))
     margin = np.min([d - {rd}, gap - {gain}])
     if d >= {rd} and gap >= {gain}:
-        return True, {lit(xn + " is released (the tip is %.3f m away)")} % d, margin
-    return False, {lit(xn + " is still held by the suction cup (the tip is %.3f m from its centre and %.3f m further than it came)")} % (d, gap), margin
+        return True, {lit(xn + " released (tip %.3f m away)")} % d, margin
+    return False, {lit(xn + " still held (tip %.3f m away, %.3f m further than it came)")} % (d, gap), margin
 """
     return check_fn(c, body)
 
@@ -95,7 +95,7 @@ def taken(c: Spec) -> str:
     moved = np.linalg.norm(travel)
     d = distance(E[{tip}], centroid(E[{x}]))
     if d <= {md} and centroid(E[{x}])[2] - centroid(H[{x}][0])[2] >= {mr}:
-        return True, {lit(xn + " is on the suction cup (%.3f m from the tip)")} % d, {md} - d
+        return True, {lit(xn + " held (%.3f m from the tip)")} % d, {md} - d
     gaps = []
 """
     for i, k in enumerate(c["element_ids"][2:]):
@@ -104,10 +104,10 @@ def taken(c: Spec) -> str:
     rk = centroid(E[{k}])[2] - centroid(H[{k}][0])[2]
     lk = np.linalg.norm(centroid(E[{k}]) - centroid(H[{k}][0]) - travel)
     if (dk <= {md} and rk >= {mr}) or (dk <= {cd} and moved >= {mr} and lk <= {lag} * moved):
-        return False, {lit(kn + " is on the tip instead of " + xn + " (%.3f m from it, risen %.3f m): " + xn + " is not held")} % (dk, rk), dk - {cd}
+        return False, {lit(kn + " is on the tip instead of " + xn + " (%.3f m from it, risen %.3f m)")} % (dk, rk), dk - {cd}
     gaps.append(dk - {md})
 """
-    body += f"""    return True, {lit("no other block is on the suction cup instead of " + xn)}, np.min(gaps)
+    body += f"""    return True, {lit("no other block on the tip")}, np.min(gaps)
 """
     return check_fn(c, body)
 
@@ -119,8 +119,8 @@ def plumb(c: Spec) -> str:
     body = f"""
     off = horizontal_distance(E[{up}], E[{lo_id}])
     if off <= {mo}:
-        return True, {lit(un + " stays centred on " + ln + " (offset %.3f m)")} % off, {mo} - off
-    return False, {lit(un + " was knocked %.3f m off the centre of " + ln + " (limit " + mo + "): the tower below is disturbed and stacking on it will topple")} % off, {mo} - off
+        return True, {lit(un + " centred on " + ln + " (offset %.3f m)")} % off, {mo} - off
+    return False, {lit(un + " knocked %.3f m off " + ln + " (limit " + mo + "): stacking on it will topple")} % off, {mo} - off
 """
     return check_fn(c, body)
 
@@ -134,7 +134,7 @@ def tower(c: Spec) -> str:
     dz = centroid(E[{up}])[2] - centroid(E[{lo_id}])[2]
     margin = np.min([{mo} - off, dz - {lo}, {hi} - dz])
     if off <= {mo} and dz >= {lo} and dz <= {hi}:
-        return True, {lit(un + " is still on " + ln + " (offset %.3f m)")} % off, margin
-    return False, {lit(un + " is no longer on " + ln + " (offset %.3f m, height difference %.3f m): the tower collapsed")} % (off, dz), margin
+        return True, {lit(un + " on " + ln + " (offset %.3f m)")} % off, margin
+    return False, {lit(un + " no longer on " + ln + " (offset %.3f m, dz %.3f m): the tower collapsed")} % (off, dz), margin
 """
     return check_fn(c, body)

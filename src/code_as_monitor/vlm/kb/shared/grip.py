@@ -95,8 +95,8 @@ def held_since_grasp(c: Spec) -> str:
     rise = centroid(E[{x}])[2] - centroid(H[{x}][0])[2]
     margin = np.min([{md} - d, rise - {mr}])
     if d <= {md} and rise >= {mr}:
-        return True, {lit(xn + " is held: it rose %.3f m with the tip since the grasp began and is %.3f m from it")} % (rise, d), margin
-    return False, {lit(xn + " is not held: it rose %.3f m since the grasp began (needs " + mr + ") and is %.3f m from the tip (limit " + md + ")")} % (rise, d), margin
+        return True, {lit(xn + " held (rose %.3f m, %.3f m from the tip)")} % (rise, d), margin
+    return False, {lit(xn + " not held: rose %.3f m since the grasp (needs " + mr + "), %.3f m from the tip (limit " + md + ")")} % (rise, d), margin
 """
     return check_fn(c, body)
 
