@@ -3,7 +3,9 @@
 The request says each thing once (compact JSON: constraints refer to elements by id, the legend is one short
 array per element, named only where its owner does not say what it is) and the annotated views go at the
 cheapest detail that keeps their pixels. A request that comes again word for word (a re-planned subgoal) reuses
-the program already accepted for it, re-checked.
+the program already accepted for it, re-checked; a constraint monitored again in a later subgoal reuses its
+accepted check, renumbered (:mod:`~code_as_monitor.planning.check_reuse`), so the model is asked only for the
+new constraints.
 
 The answer's code fences are stripped, the source must parse, and then the caller's ``check``
 (static validation and path coverage, from the monitor package) must accept it. A rejected program
@@ -24,12 +26,14 @@ import logging
 import re
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 
 import numpy as np
 
 from code_as_monitor.core.constraints import Constraint, Subgoal
 from code_as_monitor.core.elements import Element, ElementSpec
 from code_as_monitor.core.errors import ConfigError, ProgramError, VLMOutputError
+from code_as_monitor.planning.check_reuse import KeptCheck, check_key, combine, renumber, split_checks
 from code_as_monitor.vlm.backend import VLMBackend, VLMResponse
 from code_as_monitor.vlm.messages import Message, TextPart, view_parts
 from code_as_monitor.vlm.parsing import dump_request, strip_code_fences
@@ -184,7 +188,10 @@ class MonitorCoder:
             constraints with thresholds and element ids, legend) and, when the same request comes again (a
             subgoal re-planned word for word after a failure), run ``check`` on the kept program before asking
             the model; the program reads only the elements, so the same request needs the same program. A kept
-            program that ``check`` now rejects is dropped and the model is asked as usual.
+            program that ``check`` now rejects is dropped and the model is asked as usual. Also keep each accepted
+            ``check_<id>`` under its constraint and the elements it reads (:mod:`~.check_reuse`): a later subgoal
+            monitoring the same constraint gets that function renumbered to its element ids, and the model is
+            asked only for the other constraints (not at all when every one has a kept check).
         views: send the annotated views (the paper's coder sees them; default). False sends the request alone:
             the legend names every numbered element, so a coder that writes from the legend needs no image
             (saves one image per call: 85 estimated tokens for the default views).
@@ -200,6 +207,9 @@ class MonitorCoder:
         self.reused = 0
         """Programs taken from the kept ones (no model call)."""
         self._kept: dict[str, str] = {}
+        self._checks: dict[str, KeptCheck] = {}
+        self.checks_reused = 0
+        """Check functions taken from earlier programs into a new one (:mod:`~.check_reuse`)."""
         self.last_messages: list[Message] = []
         self.last_response: VLMResponse | None = None
 
@@ -244,15 +254,73 @@ class MonitorCoder:
         """
         key = dump_request(coder_request(subgoal, elements)) if self.reuse and not feedback else None
         kept = self._kept.get(key) if key is not None else None
+        try_checks = key is not None
         if kept is not None:
             try:
                 check(kept)
             except ProgramError as exc:
                 log.info("monitor coder: the kept program no longer passes (%s); asking the model", exc)
                 del self._kept[key]
+                try_checks = False  # its own functions, renumbered to the same ids, are that same program
             else:
                 self.reused += 1
                 return kept
+        source = self._with_kept_checks(subgoal, elements, annotated_images, check, max_retries) \
+            if try_checks else None
+        if source is None:
+            source = self._ask(subgoal, elements, annotated_images, check, max_retries, feedback)
+        if key is not None:
+            self._kept[key] = source
+        if self.reuse:
+            self._keep_checks(subgoal, elements, source)
+        return source
+
+    def _with_kept_checks(self, subgoal: Subgoal, elements: list[Element], annotated_images: dict[str, np.ndarray],
+                          check: ProgramCheck, max_retries: int) -> str | None:
+        """The program from the kept checks (:mod:`~code_as_monitor.planning.check_reuse`) of ``subgoal``'s
+        constraints and, for the others, the model's answer to a request that asks only for them; the combined
+        program must pass ``check``. None when no constraint has a kept check, or when the combined program is
+        rejected (the caller then asks for the whole program)."""
+        ids = resolve_element_ids(subgoal, elements)
+        by_id = {e.id: e for e in elements}
+        reused: dict[str, str] = {}
+        for c in subgoal.constraints:
+            kc = self._checks.get(check_key(c, ids[c.id], by_id))
+            src = renumber(kc.source, kc.ids, ids[c.id]) if kc is not None else None
+            if src is not None:
+                reused[f"check_{c.id}"] = src
+        if not reused:
+            return None
+        missing = [c for c in subgoal.constraints if f"check_{c.id}" not in reused]
+        try:
+            if not missing:
+                source = combine(None, reused)
+                check(source)
+            else:
+                asked = self._ask(replace(subgoal, constraints=missing), elements, annotated_images,
+                                  lambda src: check(combine(src, reused)), max_retries, None)
+                source = combine(asked, reused)
+        except (ProgramError, VLMOutputError) as exc:
+            log.info("monitor coder: the program with %d kept check(s) was rejected (%s); asking for all of it",
+                     len(reused), exc)
+            return None
+        self.checks_reused += len(reused)
+        return source
+
+    def _keep_checks(self, subgoal: Subgoal, elements: list[Element], source: str) -> None:
+        """Keep each ``check_<id>`` of an accepted program that can be renumbered exactly, under its key."""
+        ids = resolve_element_ids(subgoal, elements)
+        by_id = {e.id: e for e in elements}
+        functions = split_checks(source)
+        for c in subgoal.constraints:
+            fn = functions.get(f"check_{c.id}")
+            if fn is not None and renumber(fn, tuple(ids[c.id]), ids[c.id]) is not None:
+                self._checks[check_key(c, ids[c.id], by_id)] = KeptCheck(fn, tuple(ids[c.id]))
+
+    def _ask(self, subgoal: Subgoal, elements: list[Element], annotated_images: dict[str, np.ndarray],
+             check: ProgramCheck, max_retries: int, feedback: str | None) -> str:
+        """Ask the model for ``subgoal``'s program, re-asking with the error after a rejection (see
+        :meth:`write_program`)."""
         messages = self.build_messages(subgoal, elements, annotated_images, feedback)
         last_error, last_answer, calls = "", None, 0
         request = messages
@@ -280,8 +348,6 @@ class MonitorCoder:
                 # the original request, the last answer and its error: not the growing conversation
                 request = [*messages, Message.assistant(resp.text), Message.user(repair)]
                 continue
-            if key is not None:
-                self._kept[key] = source
             return source
         raise VLMOutputError(
             f"monitor coder: no acceptable program after {calls} attempt(s); last problem: "
