@@ -38,8 +38,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="cam",
         description=(
             "Code-as-Monitor: constraint-aware visual programming for reactive and proactive robotic "
-            "failure detection. Runs offline by default (knowledge-base planner, simulator "
-            "segmentation, OpenCV tracking)."
+            "failure detection. Runs offline by default: the knowledge-base planner and coder (a rule-based "
+            "stand-in for a VLM), simulator segmentation masks, and the depth tracker (each object's points "
+            "registered to the depth images; no simulator pose)."
         ),
     )
     parser.add_argument("--version", action="version", version=f"cam {__version__}")
