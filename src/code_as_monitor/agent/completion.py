@@ -7,9 +7,10 @@ check not holding is judged on re-measured elements over up to ``settle_frames``
 (:meth:`SubgoalCompletion._settle`). Re-measured (:meth:`SubgoalCompletion._refreshed`): an element the tracker
 saw move this subgoal is painted again from the current frame; one at rest keeps its measurement from the
 subgoal's start, where a tracker that registered it has carried it (:func:`carried_at_rest`), unless that one was
-weak. When the planner calls the task complete, the last subgoal's upon checks
-are judged once more on the scene at rest (:meth:`SubgoalCompletion.follow`, :meth:`SubgoalCompletion.at_rest`): a
-book that passed "standing" while it was still tipping over has fallen by then.
+weak: then it is painted again, or, when a tracker that registers it now carried it away from that measurement,
+judged where the tracker has it (:meth:`SubgoalCompletion._carried_away`). When the planner calls the task complete,
+the last subgoal's upon checks are judged once more on the scene at rest (:meth:`SubgoalCompletion.follow`,
+:meth:`SubgoalCompletion.at_rest`): a book that passed "standing" while it was still tipping over has fallen by then.
 """
 
 from __future__ import annotations
@@ -23,12 +24,19 @@ import numpy as np
 
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Verdict
-from code_as_monitor.core.elements import Element, stood_in
+from code_as_monitor.core.elements import Element, ElementKind, stood_in
 from code_as_monitor.core.observation import Observation
 
 TRACKED_AT_REST = 0.5
 """An element at rest keeps the position its tracker carried its start measurement to when the tracker's weakest frame
 since rested on at least this fraction of the observations the measurement did (:func:`carried_at_rest`)."""
+
+CARRIED_NOT_REPAINTED = 0.005
+"""Metres: a point element at rest (moved less than ``refresh_motion``) whose weak start measurement a registering
+tracker has carried further than this is judged where the tracker has it, not painted again
+(:meth:`SubgoalCompletion._carried_away`). Above the 1-2 mm a resting object's registration moves it (a block nudged
+by the one set down on it: 1.9 mm); a part that moved that far in its place (a bulb screwed 1.5 cm into its socket)
+can now be partly inside a sibling, and a fresh paint measures what is left visible of it."""
 
 
 def carried_at_rest(e: Element, tracked_points: np.ndarray, stale: np.ndarray | None,
@@ -97,13 +105,37 @@ class SubgoalCompletion:
                  robot_hidden_now=round(fresh.support.robot_hidden, 3), shift=round(shift, 4))
         return fresh
 
+    def _carried_away(self, obs: Observation, e: Element, tracked_points: np.ndarray, stale: np.ndarray | None,
+                      support_now: float | None, ctx: MonitorContext) -> bool:
+        """Whether ``e``, at rest by ``refresh_motion``, with a weak start measurement, is judged where its tracker has
+        it now (``tracked_points`` (k, 3) world metres) instead of painted again: the tracker carried it more than
+        :data:`CARRIED_NOT_REPAINTED` from that measurement and registers it this frame on as many observations as
+        :func:`carried_at_rest` asks of its weakest frame (``support_now``, this frame's; the weakest may have been
+        while the gripper held it). A bulb screwed 1.5 cm down has its neck inside the socket at the end, and painted
+        afresh from the front view alone its centre read 42 mm above the socket's where the tracked one read under 39
+        (screw-bulb seed 21; the bulb's fresh paints are biased up once seated, in every view set).
+
+        Points only: a registration fixes a shape's position better than its turn (a symmetric one's turn not at all),
+        and a line or surface is read for its direction. A book's spine turned upright about its middle moved 6.5 mm
+        and the ``depth`` tracker still had it lying, 90 degrees from vertical, where a fresh paint saw it upright
+        (stow-book (c) 1048184493: one false "not upright" and a re-plan, with this rule on lines too)."""
+        if e.kind is not ElementKind.POINT or e.support is None or not e.support.weak() \
+                or not carried_at_rest(e, tracked_points, stale, support_now):
+            return False
+        moved = float(np.linalg.norm(tracked_points.mean(axis=0) - e.points.mean(axis=0)))
+        if moved <= CARRIED_NOT_REPAINTED:
+            return False
+        ctx.emit("element_kept_tracked", t=obs.t, id=e.id, name=e.name, moved=round(moved, 4))
+        return True
+
     def _refreshed(self, obs: Observation, tr: Any, ctx: MonitorContext,
                    confirming: bool = False) -> tuple[dict, dict, dict, dict]:
         """The elements to judge the upon checks on: (points, stale, tracked support, measured elements) by id.
 
         With ``refresh_on_done``, an element the tracker saw move more than ``refresh_motion`` this subgoal is painted
         again from this frame; one at rest all along keeps its measurement from the subgoal start, unless that one
-        was weak (:meth:`_remeasured_at_rest`). Without it, the tracked positions. ``confirming``
+        was weak (:meth:`_remeasured_at_rest`; :meth:`_carried_away`: the tracker's position when it carried it away
+        from that measurement). Without it, the tracked positions. ``confirming``
         (:meth:`_confirm`): only moved whole objects, whose box the painter completes behind what hides them, are
         painted again; a moved part keeps its tracked position, since what a view shows of a part at a subgoal's end
         can be a misleading piece of it (a book held upright with its spine behind the cover, seen end-on, re-paints
@@ -111,6 +143,7 @@ class SubgoalCompletion:
         points = dict(tr.points)
         stale = {i: np.asarray(st) for i, st in tr.stale.items()}
         tracked, measured = dict(self._tracked), {}
+        support_now = getattr(tr, "support", {}) or {}  # this frame's (the tracked figures are the weakest since)
         if not self.cfg.refresh_on_done:
             return points, stale, tracked, measured
         H0, _ = self._history.arrays()
@@ -127,6 +160,9 @@ class SubgoalCompletion:
                 # as good as the tracker that says it rested: its tracked support stays; re-measured, it is new);
                 # kept, it is where a tracker that registered it has carried it (a block nudged 2 mm by the one
                 # landing on it is not where it was painted: :func:`carried_at_rest`)
+                if self._carried_away(obs, e, np.asarray(points[e.id]), stale.get(e.id), support_now.get(e.id), ctx):
+                    stale[e.id] = np.zeros(len(points[e.id]), dtype=bool)
+                    continue  # judged where the tracker has it now (its tracked support stays)
                 kept = self._remeasured_at_rest(obs, e, ctx) or e
                 if kept is e and not carried_at_rest(e, np.asarray(points[e.id]), stale.get(e.id), tracked.get(e.id)):
                     points[e.id] = e.points

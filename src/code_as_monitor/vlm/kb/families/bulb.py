@@ -55,8 +55,10 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # screw, upon: the bulb's centre at most 3.9 cm above the socket's. Seated, the ball's centre is 3.7 cm above
     # the socket's (socket z 6-9 cm, ball centre 2.2 cm above the bulb's bottom at the mouth); painted from its
     # visible pixels (the neck pulls it down) the points stand 3.0-3.3 cm apart seated and 4.5-4.6 cm with the
-    # bulb 1.5 cm out (measured on the sim segmenter's paintings, seeds 0-2): the bound is about halfway, the
-    # bulb within ~7 mm (half a turn) of seated.
+    # bulb 1.5 cm out (measured on the sim segmenter's paintings, seeds 0-2, at bb19bf5): the bound is about halfway,
+    # the bulb within ~7 mm (half a turn) of seated. That holds for the bulb painted out of the socket and tracked
+    # down; today's painter, painting the seated bulb afresh (its neck inside the socket), reads 38-48 mm (seeds 0, 1,
+    # 2, 21, every view set), so the screw's end judges a tracked bulb where tracked (agent.completion._carried_away).
     "screwed": {"max_above": 0.039},
     # screw, upon: released: the grasp point 5 cm from the bulb's centre (the ball's 2.5 cm radius plus the
     # fingers' clearance).
