@@ -16,6 +16,11 @@ Which masks build a part's element:
   cover above the slot it stands in, 44 mm off when built from its 6 pixels) the whole object's masks stand in,
   and the element says so (``support.part_seen`` False).
 
+A view showing the element's mask with too few pixels to add points still carves with those pixels as the element's
+own and, for a part, the object's other parts as its siblings (:class:`~code_as_monitor.geometry.carve.CarveView`):
+taken for another object's surface, a book's spine and cover seen in the front view as a few pixels stopped the spine's
+carving at them, and its line lay across its top, called sound.
+
 ``views``: per view ``(View, LiftedView, SegmentResult)``; masks are (H, W) bool in the view's image; elements in
 the world frame, metres.
 """
@@ -69,10 +74,12 @@ def _fit(eid: int, spec: ElementSpec, views: list[tuple], counts: list[tuple[int
     for (view, lifted, res), (pc, ic), robot in zip(views, counts, robots):
         own = part_seen or pc >= least
         mask = res.part_mask if own else res.instance_mask
-        if (pc < least) if own else (ic < min_pixels):
-            mask = np.zeros(lifted.valid.shape, dtype=bool)  # adds no points; its depth still carves free space
-        clouds.append(lifted.points(mask))
-        siblings = res.instance_mask & ~res.part_mask if spec.part and mask is res.part_mask else None
+        # a view showing too little adds no points, but its carving still knows which pixels are the element's own
+        # and which its siblings' (else a book's spine seen as a few pixels end-on in one view stops growing at
+        # its own pixels and its cover's, read as another object just in front)
+        few = (pc < least) if own else (ic < min_pixels)
+        clouds.append(lifted.points(np.zeros(lifted.valid.shape, dtype=bool) if few else mask))
+        siblings = res.instance_mask & ~res.part_mask if spec.part and own else None
         carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings, robot))
     if not any(len(c) for c in clouds):
         return None
