@@ -55,7 +55,7 @@ class YourRobot:
         return self.world.observe()
 
 
-def main(tracker: str = "lk", size: tuple[int, int] = (640, 480), seed: int = 10) -> bool:
+def main(tracker: str = "depth", size: tuple[int, int] = (640, 480), seed: int = 10) -> bool:
     from code_as_monitor.sim.env import make_env  # only the stand-in robot needs the simulator
     from code_as_monitor.sim.world import WorldConfig
 

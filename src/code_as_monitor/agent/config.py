@@ -123,7 +123,9 @@ class MonitorConfig(AgentConfig):
         backend, backend_options: the VLM backend for the planner and the coder (``kb``: a rule-based
             stand-in for a VLM, not a VLM; ``openai``: any OpenAI-compatible server; ``replay``).
         segmenter, segmenter_options: ``sim`` (ground-truth masks in ``View.seg``), ``color``, ``http``.
-        tracker, tracker_options: ``lk`` (OpenCV Lucas-Kanade), ``sim`` (oracle poses), ...
+        tracker, tracker_options: ``depth`` (the default: each element's object cloud registered to the depth
+            images, no simulator pose; what RESULTS.md measures), ``lk`` (OpenCV Lucas-Kanade on the images, lifted
+            with depth), ``sim`` (oracle poses), ...
         cameras: view names the monitor uses; None: every view of each observation.
         deadline_s: the sandbox's per-frame deadline for running every check (seconds); a frame past
             it is a program fault for every check (no verdict). 20 ms suits 10 Hz on an idle machine.
@@ -144,7 +146,7 @@ class MonitorConfig(AgentConfig):
     backend_options: dict[str, Any] = field(default_factory=dict)
     segmenter: str = "sim"
     segmenter_options: dict[str, Any] = field(default_factory=dict)
-    tracker: str = "lk"
+    tracker: str = "depth"
     tracker_options: dict[str, Any] = field(default_factory=dict)
     cameras: list[str] | None = None
     deadline_s: float = 0.020

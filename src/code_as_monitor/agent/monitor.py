@@ -19,7 +19,7 @@ The caller owns the policy and the clock. Each frame it hands over an
 current action; the :class:`~code_as_monitor.agent.decision.Decision` says whether to halt, which
 action to start, and whether the episode is over. Nothing here imports the simulator.
 
-    monitor = Monitor.from_config(MonitorConfig(backend="kb", segmenter="color", tracker="lk"))
+    monitor = Monitor.from_config(MonitorConfig(backend="kb", segmenter="color", tracker="depth"))
     monitor.start("stack the blocks: red at the bottom, then green, then blue")
     while True:
         obs = robot.observe()                          # multi-view RGB-D + robot state, robot clock
