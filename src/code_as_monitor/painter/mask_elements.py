@@ -78,7 +78,7 @@ def _fit(eid: int, spec: ElementSpec, views: list[tuple], counts: list[tuple[int
         # and which its siblings' (else a book's spine seen as a few pixels end-on in one view stops growing at
         # its own pixels and its cover's, read as another object just in front)
         few = (pc < least) if own else (ic < min_pixels)
-        clouds.append(lifted.points(np.zeros(lifted.valid.shape, dtype=bool) if few else mask))
+        clouds.append(np.empty((0, 3)) if few else lifted.points(mask))
         siblings = res.instance_mask & ~res.part_mask if spec.part and own else None
         carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings, robot))
     if not any(len(c) for c in clouds):
