@@ -164,3 +164,39 @@ def test_a_set_check_with_unseen_members_is_judged_on_the_members_seen(monotone:
     else:
         assert policy.halts == 0, "no verdict: the policy runs to its end"
         assert sg.outcome == "reactive_failure" and "no verdict" in sg.reason
+
+
+@pytest.mark.parametrize("release", [1.2, None])
+def test_a_set_check_is_not_judged_on_the_members_seen_while_the_hand_is_engaged(release: float | None) -> None:
+    """As above (two of three beads needed, one stale all along), but the gripper holds until ``release``: the members
+    hidden then may be the ones in its grip, so the check waits for the release (the halt comes after it, not when
+    the beads seen first hold at t = 1.0 s); held all along, it never has a verdict."""
+    from code_as_monitor.core.observation import Observation, RobotState
+
+    class HeldWorld(World):
+        def observe(self) -> Observation:
+            held = release is None or self.t < release - 1e-9
+            return Observation(t=self.t, views={}, objects=["block"],
+                               robot=RobotState(ee_pose=np.eye(4), gripper=1.0 if held else 0.0))
+
+    w = HeldWorld()
+    planner = Planner([_set_subgoal(["rope"])])
+    rules = {"covered": lambda P, t: sum(p[0, 0] >= 0.2 for p in P.values()) >= 2}
+    agent = Agent(planner, Coder(), Painter(), Tracker(w), Runtime(rules), History, AgentConfig(max_replans=0))
+    real_step = Tracker.step
+
+    def step(self, obs):
+        tr = real_step(self, obs)
+        tr.stale = {i: np.array([i == 0]) for i in tr.points}
+        return tr
+
+    agent.tracker.step = step.__get__(agent.tracker)
+    policy = MovePolicy(w)
+    ep = agent.run("drag the rope", w, policy)
+    sg = ep.subgoals[0]
+    if release is not None:
+        assert sg.outcome == "success" and policy.halts == 1
+        assert sg.t_end >= release - 1e-9, "not judged on the beads seen while the hand held"
+        assert "judged on the elements seen" in sg.reason
+    else:
+        assert policy.halts == 0 and sg.outcome == "reactive_failure" and "no verdict" in sg.reason

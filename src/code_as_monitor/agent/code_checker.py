@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.check_modes import kept_constraints
-from code_as_monitor.agent.completion import SubgoalCompletion
+from code_as_monitor.agent.completion import SubgoalCompletion, engaged
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd, runs_to_end
@@ -263,7 +263,7 @@ class CodeChecker(SubgoalCompletion):
         stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
         unknown = {cid for cid, ids in self._uses.items() if ids & stale_ids}
         # ... unless the stale ones are monotone members of its constraint and it holds on those seen
-        seen = self._judged_on_seen(tr.points, stale_ids, unknown, obs.t)
+        seen = self._judged_on_seen(tr.points, stale_ids, unknown, obs.t, engaged(obs))
         unknown -= set(seen)
         if unknown != self._unknown_before:
             ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids),
