@@ -53,7 +53,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threshold", type=float, default=3.0, help="mm or degrees an error must move to be listed")
     ap.add_argument("--top", type=int, default=40, help="how many moved elements to print")
     args = ap.parse_args(argv)
-    a, b = load(args.before), load(args.after)
+    loaded = []
+    for path in (args.before, args.after):
+        try:
+            loaded.append(load(path))
+        except (OSError, json.JSONDecodeError) as exc:
+            print(f"compare_elements: cannot read the records {path}: {exc}", file=sys.stderr)
+            return 2
+    a, b = loaded
     if len(a) != len(b):
         print(f"compare_elements: {args.before} has {len(a)} records, {args.after} {len(b)}: not the same scenes",
               file=sys.stderr)

@@ -48,3 +48,15 @@ def test_files_of_other_scenes_are_refused(tmp_path, capsys, other) -> None:
                          _write(tmp_path / "b.jsonl", other)])
     assert rc == 2
     assert "not the same scenes" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bad", ["missing", "garbled"])
+def test_an_unreadable_file_is_one_line_and_exit_2(tmp_path, capsys, bad) -> None:
+    a = _write(tmp_path / "a.jsonl", [_rec(0, 0.01)])
+    b = tmp_path / "b.jsonl"
+    if bad == "garbled":
+        b.write_text("{not json\n")
+    rc = _module().main([a, str(b)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "cannot read the records" in err and "b.jsonl" in err
+    assert len(err.strip().splitlines()) == 1
