@@ -231,7 +231,7 @@ class SubgoalCompletion:
         <code_as_monitor.core.observation.RobotState.gripper>`): the members hidden then are the ones under the
         hand, which may be in its grip, and a held member drags the others when it moves or when a halt lets it go.
         Rope 130311453 (``depth``): judged on 17 of 20 beads 0.2 s after the suction took the rope for another
-        push, the policy was halted mid-lift and the opening fell from enclosed to 55 % covered.
+        push, the policy was halted and the opening fell from enclosed to 55 % covered.
 
         Args:
             points: element id -> (k, 3) world metres, this frame.
