@@ -134,13 +134,9 @@ def _set_subgoal(monotone: list[str]) -> Subgoal:
     return Subgoal("drag the rope", [c], Action("move", {"obj": "rope"}))
 
 
-@pytest.mark.parametrize("monotone, need", [(["rope"], 2), ([], 2), (["rope"], 3)])
-def test_a_set_check_with_unseen_members_is_judged_on_the_members_seen(monotone: list[str], need: int) -> None:
-    """One bead is stale all along. A check over monotone members that holds on the two beads seen completes the
-    subgoal (early halt, the reason names the unseen bead); without ``monotone`` it has no verdict; one that does
-    not hold on those seen (three needed) has no verdict either: neither an early halt nor a failure read from
-    the beads seen."""
-    w = World()
+def _drag_with_bead_0_stale(w: World, monotone: list[str], need: int):
+    """Run :func:`_set_subgoal` in ``w`` with bead 0 stale on every frame and a check needing ``need`` beads at
+    x >= 0.2: (the subgoal's result, the policy, the events)."""
     planner = Planner([_set_subgoal(monotone)])
     rules = {"covered": lambda P, t: sum(p[0, 0] >= 0.2 for p in P.values()) >= need}
     events: list[tuple[str, dict]] = []
@@ -156,7 +152,17 @@ def test_a_set_check_with_unseen_members_is_judged_on_the_members_seen(monotone:
     agent.tracker.step = step.__get__(agent.tracker)
     policy = MovePolicy(w)
     ep = agent.run("drag the rope", w, policy)
-    sg = ep.subgoals[0]
+    return ep.subgoals[0], policy, events
+
+
+@pytest.mark.parametrize("monotone, need", [(["rope"], 2), ([], 2), (["rope"], 3)])
+def test_a_set_check_with_unseen_members_is_judged_on_the_members_seen(monotone: list[str], need: int) -> None:
+    """One bead is stale all along. A check over monotone members that holds on the two beads seen completes the
+    subgoal (early halt, the reason names the unseen bead); without ``monotone`` it has no verdict; one that does
+    not hold on those seen (three needed) has no verdict either: neither an early halt nor a failure read from
+    the beads seen."""
+    w = World()
+    sg, policy, events = _drag_with_bead_0_stale(w, monotone, need)
     if monotone and need == 2:
         assert sg.outcome == "success" and policy.halts == 1
         assert "judged on the elements seen (unseen: [0])" in sg.reason
@@ -179,21 +185,7 @@ def test_a_set_check_is_not_judged_on_the_members_seen_while_the_hand_is_engaged
             return Observation(t=self.t, views={}, objects=["block"],
                                robot=RobotState(ee_pose=np.eye(4), gripper=1.0 if held else 0.0))
 
-    w = HeldWorld()
-    planner = Planner([_set_subgoal(["rope"])])
-    rules = {"covered": lambda P, t: sum(p[0, 0] >= 0.2 for p in P.values()) >= 2}
-    agent = Agent(planner, Coder(), Painter(), Tracker(w), Runtime(rules), History, AgentConfig(max_replans=0))
-    real_step = Tracker.step
-
-    def step(self, obs):
-        tr = real_step(self, obs)
-        tr.stale = {i: np.array([i == 0]) for i in tr.points}
-        return tr
-
-    agent.tracker.step = step.__get__(agent.tracker)
-    policy = MovePolicy(w)
-    ep = agent.run("drag the rope", w, policy)
-    sg = ep.subgoals[0]
+    sg, policy, _ = _drag_with_bead_0_stale(HeldWorld(), ["rope"], 2)
     if release is not None:
         assert sg.outcome == "success" and policy.halts == 1
         assert sg.t_end >= release - 1e-9, "not judged on the beads seen while the hand held"

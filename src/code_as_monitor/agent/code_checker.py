@@ -25,14 +25,14 @@ from typing import Any
 import numpy as np
 
 from code_as_monitor.agent.check_modes import kept_constraints
-from code_as_monitor.agent.completion import SubgoalCompletion, engaged
+from code_as_monitor.agent.completion import SubgoalCompletion
 from code_as_monitor.agent.config import AgentConfig
 from code_as_monitor.agent.rest import HOLD_WINDOW_S, in_hand
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd, runs_to_end
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
-from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.observation import Observation, engaged
 
 FrameFn = Callable[[Observation, list[Element], dict[int, np.ndarray], list[Verdict], str], None]
 PromptFn = Callable[[int, Subgoal, dict[str, np.ndarray], str], None]

@@ -25,7 +25,7 @@ import numpy as np
 from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd
 from code_as_monitor.core.constraints import Verdict
 from code_as_monitor.core.elements import Element, ElementKind, stood_in
-from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.observation import Observation, engaged
 
 TRACKED_AT_REST = 0.5
 """An element at rest keeps the position its tracker carried its start measurement to when the tracker's weakest frame
@@ -58,12 +58,6 @@ def carried_at_rest(e: Element, tracked_points: np.ndarray, stale: np.ndarray | 
     if sup is None:
         return math.isinf(tracked_support)
     return tracked_support >= TRACKED_AT_REST * float(sup.points) * (1.0 - float(sup.robot_hidden))
-
-
-def engaged(obs: Observation) -> bool:
-    """Whether the end effector holds or may hold something in ``obs``: gripper closed or suction on (``gripper``
-    at least 0.5); False without robot state."""
-    return obs.robot is not None and float(obs.robot.gripper) >= 0.5
 
 
 class SubgoalCompletion:
@@ -207,7 +201,7 @@ class SubgoalCompletion:
         self._last = (obs.t, dict(points), stale_ids, tracked, measured)
         return again
 
-    def _upon_verdicts(self, points: dict, stale_ids: set[int], t: float, holding: bool = False) -> list[Verdict]:
+    def _upon_verdicts(self, points: dict, stale_ids: set[int], t: float, holding: bool) -> list[Verdict]:
         """The program's upon verdicts on ``points`` (element id -> (k, 3) world metres) with the current history;
         a fault, or a check reading an element in ``stale_ids``, is no verdict, unless those are monotone members
         of its constraint and it holds on the elements seen (:meth:`_judged_on_seen`; not while ``holding``)."""
@@ -220,7 +214,7 @@ class SubgoalCompletion:
                 if v.constraint_id not in unknown or v.constraint_id in seen]
 
     def _judged_on_seen(self, points: dict, stale_ids: set[int], unknown: set[str], t: float,
-                        holding: bool = False) -> dict[str, Verdict]:
+                        holding: bool) -> dict[str, Verdict]:
         """Verdicts for checks that have none this frame because they read stale elements, when every stale element
         they read is a monotone member of their constraint (:attr:`~code_as_monitor.core.constraints.Constraint.
         monotone`: a set more members can only help to hold, like a rope's beads covering a gap): the program runs

@@ -122,6 +122,12 @@ class Observation:
         return None if self.robot is None else self.robot.tip
 
 
+def engaged(obs: Observation) -> bool:
+    """Whether the end effector holds or may hold something in ``obs``: gripper closed or suction on
+    (:attr:`RobotState.gripper` at least 0.5); False without robot state."""
+    return obs.robot is not None and float(obs.robot.gripper) >= 0.5
+
+
 def check_observation(obs: object, where: str = "Monitor.step") -> None:
     """Raise :class:`ObservationError` naming what is wrong unless ``obs`` is an :class:`Observation` with
     a finite time ``t`` and a dict of :class:`View` (the views check their own arrays)."""

@@ -63,7 +63,7 @@ import numpy as np
 
 from code_as_monitor.core.elements import Element, ElementSpec, stood_in
 from code_as_monitor.core.errors import CamError, PerceptionError
-from code_as_monitor.core.observation import Observation
+from code_as_monitor.core.observation import Observation, engaged
 from code_as_monitor.perception.trackers.anchor import KinematicAnchor
 from code_as_monitor.perception.trackers.base import DepthTrackerConfig, Tracker, TrackResult
 from code_as_monitor.perception.trackers.depth_body import RigidBody, apply, invert, model_chroma, support
@@ -137,7 +137,7 @@ class DepthTracker(Tracker):
         self._t = obs.t
         # a body painted in the jaws is carried from the first frame (a pen re-painted as a re-plan began, then
         # swung 3.4 cm in one frame, was lost, and re-found 11.6 cm off: a false "pen dropped")
-        self._update_held(self._tip_prev, obs.robot is not None and float(obs.robot.gripper) >= 0.5)
+        self._update_held(self._tip_prev, engaged(obs))
 
     def step(self, obs: Observation) -> TrackResult:
         c = self.config
@@ -145,7 +145,7 @@ class DepthTracker(Tracker):
         views = self._usable_views(obs)
         ee = _ee_pose(obs)
         dT_ee = ee @ invert(self._ee) if (ee is not None and self._ee is not None) else None
-        on = obs.robot is not None and float(obs.robot.gripper) >= 0.5
+        on = engaged(obs)
         tip = obs.tip  # read once per frame
         tool = _tool(obs, ee, tip, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
         dt = obs.t - self._t if self._t is not None else 0.0
