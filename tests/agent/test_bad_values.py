@@ -26,6 +26,7 @@ MONITOR_CONFIG_BAD = [
     ("max_subgoals", 0), ("max_subgoals", "x"), ("time_limit_s", math.inf), ("time_limit_s", "x"),
     ("history_len", 2.5), ("history_len", math.inf), ("code_retries", 0.5), ("halt_on_upon", "no"),
     ("upon_dwell_frames", math.nan), ("refresh_motion", -1.0), ("refresh_motion", "x"), ("settle_frames", 1.5),
+    ("rest_motion", -0.01), ("rest_motion", math.inf),
     ("deadline_s", math.inf), ("deadline_s", 1e300), ("deadline_s", 1e-320), ("deadline_s", "x"),
     ("backend_options", "x"), ("tracker_options", [1]), ("cameras", "front"), ("backend", 3),
 ]

@@ -294,11 +294,12 @@ class SubgoalCompletion:
         hold or have no verdict (an element unseen now does not undo a completion judged before), else a reactive
         failure whose first violated check is raised as an alarm (the planner re-plans on it).
 
-        Judged only if an element the checks read (not the robot's) moved more than ``refresh_motion`` since the
-        frame the completion was judged on: what moved less is the motion the tracker does not count as moving (a
-        released rope settling by millimetres), and judging it again would only re-sample a borderline reading (a
-        rope read 91 % covered within 1.9 cm at the halt, 82 % at rest, with the task's own 2.5 cm still met); a
-        book tipping over after the release moves its spine by centimetres."""
+        Judged only if an element the checks read (not the robot's) moved more than ``rest_motion`` (default 0:
+        any move) since the frame the completion was judged on. A threshold as large as ``refresh_motion`` (3 cm,
+        the gate until the twenty-fourth session, set against a rope read 82 % covered at rest after 91 % at the
+        halt on the oracle tracker) also kept completions the scene had undone: a rope bead sliding 2.6 cm down
+        another opened the square after the halt (rope 716911120; ``rope-close-square --seed 3 --cameras
+        shoulders``, 2.0 cm); a book tipping over after the release moves its spine by centimetres."""
         if self._unwatched or not self._upon:
             return None
         judged, unseen = (self._last[1], set(self._last[2])) if self._last is not None else (None, set())
@@ -307,7 +308,7 @@ class SubgoalCompletion:
         self._history.push(obs.t, points)
         stale_ids = {i for i, st in stale.items() if np.any(st)}
         moved = self._moved_since(judged, points, stale_ids | unseen)
-        if moved is not None and moved <= self.cfg.refresh_motion:
+        if moved is not None and moved <= self.cfg.rest_motion:
             ctx.emit("rest_check", t=obs.t, ok=True, judged=False, moved=round(moved, 4))
             return None
         verdicts = self._upon_verdicts(points, stale_ids, obs.t, engaged(obs))

@@ -47,8 +47,11 @@ class AgentConfig:
             painted mostly through the robot's arm) and one from the static frame is not. Robot elements
             follow forward kinematics either way.
         refresh_motion: metres of tracked centroid motion over the subgoal above which an element counts
-            as moved; also how far an element the last subgoal's checks read must have moved since the completion
-            for the done check at rest to judge them again (``check_done_at_rest``).
+            as moved.
+        rest_motion: metres an element the last subgoal's checks read must have moved since the completion was
+            judged for the done check at rest (``check_done_at_rest``) to judge them again; 0 (default): whenever
+            any such element moved at all. Up to the twenty-fourth session this was ``refresh_motion`` (3 cm), which
+            kept completions through a rope bead sliding 2.6 cm down another and opening the square.
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
         rest_max_s: after a halt or a failed subgoal, re-plan once the scene has come to rest (the depth images
@@ -76,6 +79,7 @@ class AgentConfig:
     upon_dwell_frames: int = 2
     refresh_on_done: bool = True
     refresh_motion: float = 0.03
+    rest_motion: float = 0.0
     settle_frames: int = 5
     rest_max_s: float = 1.5
     rest_still_frames: int = 2
@@ -98,6 +102,7 @@ class AgentConfig:
         for f in ("code_retries", "upon_dwell_frames", "settle_frames"):
             check_count(name, f, getattr(self, f), 0)
         check_range(name, "refresh_motion", self.refresh_motion, 0.0, None)
+        check_range(name, "rest_motion", self.rest_motion, 0.0, None)
         check_range(name, "rest_max_s", self.rest_max_s, 0.0, None)
         check_count(name, "rest_still_frames", self.rest_still_frames, 1)
         check_range(name, "rest_depth_tol", self.rest_depth_tol, 0.0, None, lo_open=True)
