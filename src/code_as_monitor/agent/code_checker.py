@@ -32,7 +32,7 @@ from code_as_monitor.agent.subgoal import MonitorContext, SubgoalEnd, runs_to_en
 from code_as_monitor.core.constraints import Phase, Subgoal, Verdict
 from code_as_monitor.core.elements import Element
 from code_as_monitor.core.errors import PerceptionError, ProgramError, VLMError
-from code_as_monitor.core.observation import Observation, engaged
+from code_as_monitor.core.observation import Observation
 
 FrameFn = Callable[[Observation, list[Element], dict[int, np.ndarray], list[Verdict], str], None]
 PromptFn = Callable[[int, Subgoal, dict[str, np.ndarray], str], None]
@@ -263,7 +263,7 @@ class CodeChecker(SubgoalCompletion):
         stale_ids |= set(getattr(self.runtime, "stale_elements", ()))  # NaN/inf points: as if lost
         unknown = {cid for cid, ids in self._uses.items() if ids & stale_ids}
         # ... unless the stale ones are monotone members of its constraint and it holds on those seen
-        seen = self._judged_on_seen(tr.points, stale_ids, unknown, obs.t, engaged(obs))
+        seen = self._judged_on_seen(tr.points, stale_ids, unknown, obs)
         unknown -= set(seen)
         if unknown != self._unknown_before:
             ctx.emit("verdicts_unknown", t=obs.t, constraints=sorted(unknown), stale_elements=sorted(stale_ids),

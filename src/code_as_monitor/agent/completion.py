@@ -192,7 +192,7 @@ class SubgoalCompletion:
         if not measured:
             return upon_v
         stale_ids = {i for i, st in stale.items() if np.any(st)}
-        again = self._upon_verdicts(points, stale_ids, obs.t, engaged(obs))
+        again = self._upon_verdicts(points, stale_ids, obs)
         ok = len(again) == len(self._upon) and all(v.ok for v in again)
         ctx.emit("completion_check", t=obs.t, confirmed=ok, remeasured=sorted(measured),
                  verdicts=[v.to_dict() for v in again])
@@ -201,27 +201,28 @@ class SubgoalCompletion:
         self._last = (obs.t, dict(points), stale_ids, tracked, measured)
         return again
 
-    def _upon_verdicts(self, points: dict, stale_ids: set[int], t: float, holding: bool) -> list[Verdict]:
-        """The program's upon verdicts on ``points`` (element id -> (k, 3) world metres) with the current history;
-        a fault, or a check reading an element in ``stale_ids``, is no verdict, unless those are monotone members
-        of its constraint and it holds on the elements seen (:meth:`_judged_on_seen`; not while ``holding``)."""
+    def _upon_verdicts(self, points: dict, stale_ids: set[int], obs: Observation) -> list[Verdict]:
+        """The program's upon verdicts at ``obs`` on ``points`` (element id -> (k, 3) world metres) with the current
+        history; a fault, or a check reading an element in ``stale_ids``, is no verdict, unless those are monotone
+        members of its constraint and it holds on the elements seen (:meth:`_judged_on_seen`)."""
         H, ht = self._history.arrays()
         ids = {c.id for c in self._upon}
-        verdicts = [v for v in self.runtime.step(points, H, ht, t) if v.constraint_id in ids and not v.fault]
+        verdicts = [v for v in self.runtime.step(points, H, ht, obs.t) if v.constraint_id in ids and not v.fault]
         unknown = {v.constraint_id for v in verdicts if self._uses[v.constraint_id] & stale_ids}
-        seen = self._judged_on_seen(points, stale_ids, unknown, t, holding)
+        seen = self._judged_on_seen(points, stale_ids, unknown, obs)
         return [seen.get(v.constraint_id, v) for v in verdicts
                 if v.constraint_id not in unknown or v.constraint_id in seen]
 
-    def _judged_on_seen(self, points: dict, stale_ids: set[int], unknown: set[str], t: float,
-                        holding: bool) -> dict[str, Verdict]:
+    def _judged_on_seen(self, points: dict, stale_ids: set[int], unknown: set[str],
+                        obs: Observation) -> dict[str, Verdict]:
         """Verdicts for checks that have none this frame because they read stale elements, when every stale element
         they read is a monotone member of their constraint (:attr:`~code_as_monitor.core.constraints.Constraint.
         monotone`: a set more members can only help to hold, like a rope's beads covering a gap): the program runs
         once more with the stale elements left out of ``E`` and ``H``, and a check that holds on the elements seen
         gets that verdict (the unseen members cannot undo it); one that does not hold stays without a verdict.
 
-        Not while the end effector is engaged (``holding``: gripper closed or suction on, :attr:`RobotState.gripper
+        Not while the end effector is engaged at ``obs`` (:func:`~code_as_monitor.core.observation.engaged`:
+        gripper closed or suction on, :attr:`RobotState.gripper
         <code_as_monitor.core.observation.RobotState.gripper>`): the members hidden then are the ones under the
         hand, which may be in its grip, and a held member drags the others when it moves or when a halt lets it go.
         Rope 130311453 (``depth``): judged on 17 of 20 beads 0.2 s after the suction took the rope for another
@@ -231,12 +232,11 @@ class SubgoalCompletion:
             points: element id -> (k, 3) world metres, this frame.
             stale_ids: the elements stale this frame.
             unknown: ids of the constraints without a verdict because they read one of ``stale_ids``.
-            t: now, seconds.
-            holding: the end effector is engaged this frame.
+            obs: this frame (its time and robot state).
         Returns:
             constraint id -> its verdict on the elements seen, for those that hold.
         """
-        if holding:
+        if engaged(obs):
             return {}
         set_like = {cid for cid in unknown
                     if self._monotone.get(cid) and self._uses[cid] & stale_ids <= self._monotone[cid]}
@@ -246,7 +246,7 @@ class SubgoalCompletion:
         seen_points = {i: p for i, p in points.items() if i not in stale_ids}
         seen_history = {i: h for i, h in H.items() if i not in stale_ids}
         out: dict[str, Verdict] = {}
-        for v in self.runtime.step(seen_points, seen_history, ht, t):
+        for v in self.runtime.step(seen_points, seen_history, ht, obs.t):
             if v.constraint_id in set_like and v.ok and not v.fault:
                 unseen = sorted(self._uses[v.constraint_id] & stale_ids)
                 out[v.constraint_id] = replace(v, reason=f"{v.reason}; judged on the elements seen (unseen: {unseen})")
@@ -260,7 +260,7 @@ class SubgoalCompletion:
         self._history.push(obs.t, points)
         stale_ids = {i for i, st in stale.items() if np.any(st)}
         self._last = (obs.t, dict(points), stale_ids, tracked, measured)
-        verdicts = self._upon_verdicts(points, stale_ids, obs.t, engaged(obs))
+        verdicts = self._upon_verdicts(points, stale_ids, obs)
         if len(verdicts) != len(self._upon) and self._settle_attempt < self.cfg.settle_frames:
             self._settle_attempt += 1
             self._settle_next = obs.t + self._period
@@ -295,11 +295,9 @@ class SubgoalCompletion:
         failure whose first violated check is raised as an alarm (the planner re-plans on it).
 
         Judged only if an element the checks read (not the robot's) moved more than ``rest_motion`` (default 0:
-        any move) since the frame the completion was judged on. A threshold as large as ``refresh_motion`` (3 cm,
-        the gate until the twenty-fourth session, set against a rope read 82 % covered at rest after 91 % at the
-        halt on the oracle tracker) also kept completions the scene had undone: a rope bead sliding 2.6 cm down
-        another opened the square after the halt (rope 716911120; ``rope-close-square --seed 3 --cameras
-        shoulders``, 2.0 cm); a book tipping over after the release moves its spine by centimetres."""
+        any move) since the frame the completion was judged on. A bound of centimetres would keep completions the
+        scene has undone: a rope bead sliding 2.6 cm down another opens the square after the halt; a book tipping
+        over after the release moves its spine by centimetres."""
         if self._unwatched or not self._upon:
             return None
         judged, unseen = (self._last[1], set(self._last[2])) if self._last is not None else (None, set())
@@ -311,7 +309,7 @@ class SubgoalCompletion:
         if moved is not None and moved <= self.cfg.rest_motion:
             ctx.emit("rest_check", t=obs.t, ok=True, judged=False, moved=round(moved, 4))
             return None
-        verdicts = self._upon_verdicts(points, stale_ids, obs.t, engaged(obs))
+        verdicts = self._upon_verdicts(points, stale_ids, obs)
         bad = [v for v in verdicts if not v.ok]
         ctx.emit("rest_check", t=obs.t, ok=not bad, judged=True, moved=None if moved is None else round(moved, 4),
                  remeasured=sorted(measured), verdicts=[v.to_dict() for v in verdicts])

@@ -50,8 +50,8 @@ class AgentConfig:
             as moved.
         rest_motion: metres an element the last subgoal's checks read must have moved since the completion was
             judged for the done check at rest (``check_done_at_rest``) to judge them again; 0 (default): whenever
-            any such element moved at all. Up to the twenty-fourth session this was ``refresh_motion`` (3 cm), which
-            kept completions through a rope bead sliding 2.6 cm down another and opening the square.
+            any such element moved at all (a bound of centimetres keeps completions a rope sliding open after the
+            halt has undone).
         settle_frames: when the policy has finished but an upon check has no verdict (a program fault,
             or a stale element), wait up to this many frames for one before calling it a failure.
         rest_max_s: after a halt or a failed subgoal, re-plan once the scene has come to rest (the depth images
