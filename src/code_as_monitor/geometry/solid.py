@@ -6,9 +6,12 @@ a lid, a rim, a handle bar; for a sphere the box encloses it) and its centre, ax
 what the masks and depth give:
 
 1. **Axes** (:func:`box_axes`): the largest plane in the cloud (RANSAC; a visible face) gives the first axis,
-   its normal. The second is the normal of the largest plane perpendicular to it (a second visible face);
-   without one, the rotation about the first axis that minimises the area of the points' bounding rectangle
-   (the outline of a single face). The third completes a right-handed frame.
+   its normal. It is not always a face (a slanted plane through two opposite faces' strips of a thin bar can hold
+   more points): when its box leaves the points farther than the plane tolerance, frames on the largest planes
+   found from local samples are tried too, and the one whose box lies closest to the points wins. The second
+   axis is the normal of the largest plane perpendicular to the first (a second visible face); without one,
+   the rotation about the first axis that minimises the area of the points' bounding rectangle (the outline
+   of a single face). The third completes a right-handed frame.
 2. **Observed extents** (:func:`fit_box`): along each axis, the span of the points (the 99th and 1st
    percentiles); an end where a face perpendicular to the axis is seen (a spike of points there) is that
    face's plane (the median of its points). Seen from two sides, or from one side that sees two faces, a
@@ -46,6 +49,16 @@ MIN_SECOND_FACE = 0.06
 """The second axis comes from a perpendicular plane only when that plane holds this fraction of the points."""
 RANSAC_SCORE_POINTS = 400
 """RANSAC scores its plane hypotheses on at most this many points of the cloud (the refit uses them all)."""
+FACE_PLANES = 6
+"""When the largest plane's frame does not explain the cloud, :func:`box_axes` also completes a frame on each of this
+many largest distinct planes found from local samples (faces)."""
+FACE_FRAME_GAIN = 2.0
+"""A frame on a locally found face replaces the largest plane's (or the support's) only when its box's RMS distance to
+the points is less than the other's divided by this."""
+LOCAL_NEIGHBOURS = 8
+"""A local plane sample is a point and two of its this many nearest points."""
+SAME_PLANE_DEG = 1.0
+"""Refitted plane normals closer than this (degrees) are one plane found twice (:func:`plane_candidates`)."""
 
 
 @dataclass
@@ -100,29 +113,40 @@ class Box:
         return float(np.sqrt(np.mean(r**2))) if len(r) else 0.0
 
 
-def plane_ransac(P: np.ndarray, tol: float, iters: int, rng: np.random.Generator,
-                  perpendicular_to: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The plane with most points within ``tol``: (unit normal (3,), inlier mask (N,)).
-
-    With ``perpendicular_to`` (a unit axis), only planes containing that direction are tried (2-point samples).
-    """
+def _plane_hypotheses(P: np.ndarray, tol: float, iters: int, rng: np.random.Generator,
+                      perpendicular_to: np.ndarray | None, local: bool = False
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RANSAC's plane hypotheses: unit normals (M, 3), a point on each (M, 3), inlier counts (M,) on at most
+    :data:`RANSAC_SCORE_POINTS` evenly spread points (M = 0 when every sample was degenerate). ``local``: each
+    sample is a random point and two of its :data:`LOCAL_NEIGHBOURS` nearest points (a face is planar where it is
+    seen, so a local sample lies on one face; three points drawn anywhere can span two)."""
     n_pts = len(P)
     k = 2 if perpendicular_to is not None else 3
-    idx = rng.integers(0, n_pts, size=(iters, k))
+    if local:
+        anchors = rng.integers(0, n_pts, size=iters)
+        near = min(LOCAL_NEIGHBOURS, n_pts - 1)
+        d2 = ((P[anchors, None, :] - P[None, :, :]) ** 2).sum(axis=2)  # (iters, N)
+        d2[np.arange(iters), anchors] = np.inf
+        nbrs = np.argpartition(d2, near - 1, axis=1)[:, :near]
+        pick = np.argsort(rng.random((iters, near)), axis=1)[:, :k - 1]
+        idx = np.c_[anchors, np.take_along_axis(nbrs, pick, axis=1)]
+    else:
+        idx = rng.integers(0, n_pts, size=(iters, k))
     A, B = P[idx[:, 0]], P[idx[:, 1]]
     N = np.cross(B - A, P[idx[:, 2]] - A) if perpendicular_to is None else np.cross(B - A, perpendicular_to[None, :])
     norm = np.linalg.norm(N, axis=1)
     ok = norm > 1e-9
-    if not ok.any():
-        return np.array([0.0, 0.0, 1.0]), np.zeros(n_pts, dtype=bool)
     N, A = N[ok] / norm[ok, None], A[ok]
-    # hypotheses are scored on at most RANSAC_SCORE_POINTS evenly spread points
     Ps = P if n_pts <= RANSAC_SCORE_POINTS else P[np.linspace(0, n_pts - 1, RANSAC_SCORE_POINTS).astype(np.int64)]
     counts = (np.abs(Ps @ N.T - np.sum(N * A, axis=1)) <= tol).sum(axis=0)
-    best = int(np.argmax(counts))
-    n = N[best]
-    inl = np.abs((P - A[best]) @ n) <= tol
-    # least-squares refinement on the inliers (keeping the perpendicularity)
+    return N, A, counts
+
+
+def _refine_plane(P: np.ndarray, n: np.ndarray, a: np.ndarray, tol: float,
+                  perpendicular_to: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The hypothesis (normal ``n`` through ``a``) refitted by least squares on its inliers (keeping the
+    perpendicularity): (unit normal (3,), inlier mask (N,))."""
+    inl = np.abs((P - a) @ n) <= tol
     X = P[inl] - P[inl].mean(axis=0)
     if perpendicular_to is not None:
         X = X - np.outer(X @ perpendicular_to, perpendicular_to)
@@ -134,6 +158,37 @@ def plane_ransac(P: np.ndarray, tol: float, iters: int, rng: np.random.Generator
         if np.linalg.norm(cand) > 1e-9:
             n = cand / np.linalg.norm(cand)
     return n, inl
+
+
+def plane_ransac(P: np.ndarray, tol: float, iters: int, rng: np.random.Generator,
+                  perpendicular_to: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The plane with most points within ``tol``: (unit normal (3,), inlier mask (N,)).
+
+    With ``perpendicular_to`` (a unit axis), only planes containing that direction are tried (2-point samples).
+    """
+    return plane_candidates(P, tol, iters, rng, 1, perpendicular_to)[0]
+
+
+def plane_candidates(P: np.ndarray, tol: float, iters: int, rng: np.random.Generator, most: int,
+                     perpendicular_to: np.ndarray | None = None, local: bool = False
+                     ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Up to ``most`` distinct planes of the cloud ``P`` (N, 3), most points within ``tol`` first: each
+    ``(unit normal (3,), inlier mask (N,))``, refitted by least squares on its inliers. The first is
+    :func:`plane_ransac`'s. Hypotheses whose refitted normals lie within :data:`SAME_PLANE_DEG` of a kept one are
+    the same plane found again. ``local``: hypotheses from local samples (see :func:`_plane_hypotheses`)."""
+    n_pts = len(P)
+    N, A, counts = _plane_hypotheses(P, tol, iters, rng, perpendicular_to, local and n_pts > LOCAL_NEIGHBOURS + 1)
+    if len(N) == 0:
+        return [(np.array([0.0, 0.0, 1.0]), np.zeros(n_pts, dtype=bool))]
+    kept: list[tuple[np.ndarray, np.ndarray]] = []
+    same = np.cos(np.radians(SAME_PLANE_DEG))
+    for i in np.argsort(-counts, kind="stable"):
+        if len(kept) >= most:
+            break
+        n, inl = _refine_plane(P, N[i], A[i], tol, perpendicular_to)
+        if all(abs(float(n @ m)) < same for m, _ in kept):
+            kept.append((n, inl))
+    return kept
 
 
 def _min_area_angle(xy: np.ndarray) -> float:
@@ -173,9 +228,17 @@ def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,
     """Axes (3, 3) rows of the box that best explains the cloud ``P`` (N, 3).
 
     The first axis is the normal of the largest plane (RANSAC, inlier distance ``tol`` metres) or one of
-    ``candidates`` (unit directions, e.g. the support plane's normal: most parts rest on a face); each candidate
-    is completed by :func:`_second_axis`, and the frame whose box leaves the smallest RMS distance from the
-    points to its surface wins. ``first`` is the largest plane ``(normal, inliers)`` when already found.
+    ``candidates`` (unit directions, e.g. the support plane's normal: most parts rest on a face); each is completed
+    by :func:`_second_axis`, and the frame whose box leaves the smallest RMS distance from the points to its
+    surface wins (the largest plane's on a tie). The largest plane is not always a face: on a thin bar seen from
+    two sides, one end showing one face and the other end the opposite face, a plane slanted through both faces'
+    strips holds more points than either face, and its frame's box leaves the points farther from its surface
+    than the plane tolerance. When the winner's RMS residual exceeds ``tol / 2``, frames are also completed on the
+    :data:`FACE_PLANES` largest planes found from local samples (faces), and the best of them wins if its residual
+    is less than the winner's divided by :data:`FACE_FRAME_GAIN` (on small clouds every frame's residual is a
+    fraction of a millimetre, and under depth noise about the noise: there the residual does not rank frames by
+    their direction). ``first`` is the largest plane ``(normal, inliers)`` when
+    already found.
     """
     rng = rng or np.random.default_rng(0)
     if len(P) < 6:
@@ -187,10 +250,19 @@ def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,
         frames.append(_second_axis(P, c, np.zeros(len(P), dtype=bool), tol, rng))
     if not frames:
         return np.eye(3)
-    if len(frames) == 1:
-        return frames[0]
     scores = [_observed_box(P, A, noise).residual(P) for A in frames]
-    return frames[int(np.argmin(scores))]
+    best = int(np.argmin(scores))
+    if scores[best] <= tol / 2.0:  # its box explains the points within the plane tolerance
+        return frames[best]
+    # it does not: frames on faces found from local samples, the best of them if it explains the points clearly
+    # better (under depth noise every frame's residual is about the noise, and the largest plane's is kept)
+    same = np.cos(np.radians(SAME_PLANE_DEG))
+    faces = [_second_axis(P, n, i, tol, rng) for n, i in plane_candidates(P, tol, 64, rng, FACE_PLANES, local=True)
+             if i.sum() >= 3 and abs(float(n @ a1)) < same]
+    face_scores = [_observed_box(P, A, noise).residual(P) for A in faces]
+    if faces and min(face_scores) * FACE_FRAME_GAIN < scores[best]:
+        return faces[int(np.argmin(face_scores))]
+    return frames[best]
 
 
 def _observed_box(P: np.ndarray, axes: np.ndarray, noise: float, tol: float = 0.002) -> Box:
@@ -242,4 +314,4 @@ def fit_box(P: np.ndarray, voxel: float, rng: np.random.Generator | None = None,
     return _observed_box(P, axes, noise, tol)
 
 
-__all__ = ["Box", "box_axes", "fit_box", "plane_ransac"]
+__all__ = ["Box", "box_axes", "fit_box", "plane_candidates", "plane_ransac"]
