@@ -125,7 +125,9 @@ def _plane_hypotheses(P: np.ndarray, tol: float, iters: int, rng: np.random.Gene
     if local:
         anchors = rng.integers(0, n_pts, size=iters)
         near = min(LOCAL_NEIGHBOURS, n_pts - 1)
-        d2 = ((P[anchors, None, :] - P[None, :, :]) ** 2).sum(axis=2)  # (iters, N)
+        Q = P[anchors]
+        dx, dy, dz = (Q[:, i, None] - P[None, :, i] for i in range(3))
+        d2 = dx * dx + dy * dy + dz * dz  # (iters, N); per coordinate: no (iters, N, 3) temporary
         d2[np.arange(iters), anchors] = np.inf
         nbrs = np.argpartition(d2, near - 1, axis=1)[:, :near]
         pick = np.argsort(rng.random((iters, near)), axis=1)[:, :k - 1]
