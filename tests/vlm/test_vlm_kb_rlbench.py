@@ -45,6 +45,7 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("screw the bulb into the lamp", "screw-bulb", None),
     ("turn the right tap", "turn-tap", "right_handle"),
     ("rotate the left faucet", "turn-tap", "left_handle"),
+    ("turn on the tap on the right", "turn-tap", "right_handle"),  # the particle before the object, a side after
     ("drag the cube onto the target with the stick", "drag-stick", None),
     ("sweep the dust into the dustpan with the broom", "sweep-to-dustpan", None),
     ("sweep the dirt into the pan", "sweep-to-dustpan", None),

@@ -121,6 +121,9 @@ def understand(ins: Instruction, objects: list[str]) -> TapGoal | None:
     for k in ins.links:
         if k.kind == "of" and ins.resolve(k.b).head == "tap":
             r.use_link(k)
+        elif k.kind == "on" and k.a is None and k.words == "on" and ins.resolve(k.b).head == "tap" \
+                and "turn" in ins.verbs:
+            r.use_link(k)  # "turn on the tap (on the right)": the particle "on" before the object, as "turn it on"
     if len(sides) != 1:
         r.refuse("say which tap to turn: the left or the right one")
     tap = next((o for o in scene_names(objects) if "tap" in o or "faucet" in o), "")
