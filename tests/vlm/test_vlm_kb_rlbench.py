@@ -63,6 +63,8 @@ def test_paraphrases_read_as_their_task(text: str, task: str, goal: str | None) 
     ("screw in the green bulb", ["lamp", "table"], "red"),
     ("sweep half of the dirt into the dustpan", ["broom", "dustpan", "dirt_0", "table"], "all the dirt"),
     ("drag the cube with the stick", ["stick", "cube", "target", "table"], "onto the target"),
+    ("screw the bulb in by 2 turns", ["lamp", "table"], "number of turns"),
+    ("screw the bulb 3 turns", ["lamp", "table"], "number of turns"),
 ])
 def test_what_the_rules_cannot_honour_is_refused(text: str, objects: list[str], why: str) -> None:
     with pytest.raises(InstructionError, match=why):

@@ -96,6 +96,8 @@ def understand(ins: Instruction, objects: list[str]) -> BulbGoal | None:
     r.modifiers(MODIFIERS, DOING)
     if "screw" not in ins.verbs and not ("turn" in ins.verbs and "in" in ins.modifiers):
         r.refuse("say what to do with the bulb: screw it in")
+    if "screw" in ins.verbs and "turn" in ins.verbs:  # "screw the bulb in 2 turns": the grammar reads "turns" as a verb
+        r.refuse("cannot honour a number of turns: the kb screws the bulb in until it sits in its socket")
     for p in r.phrases(lambda p: p.head in HEADS):
         q = ins.resolve(p.index)
         if q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
