@@ -47,6 +47,8 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("rotate the left faucet", "turn-tap", "left_handle"),
     ("turn on the tap on the right", "turn-tap", "right_handle"),  # the particle before the object, a side after
     ("drag the cube onto the target with the stick", "drag-stick", None),
+    ("move the cube onto the red target using the stick", "drag-stick", None),  # the stick's move is the drag
+    ("bring the cube to the target with the stick", "drag-stick", None),
     ("sweep the dust into the dustpan with the broom", "sweep-to-dustpan", None),
     ("sweep the dirt into the pan", "sweep-to-dustpan", None),
     ("install the light bulb in the lamp", "screw-bulb", None),

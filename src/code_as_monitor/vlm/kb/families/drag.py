@@ -78,7 +78,9 @@ def understand(ins: Instruction, objects: list[str]) -> DragGoal | None:
     r = Reading(ins, "drag-stick", heads=HEADS, verbs=VERBS)
     r.verbs(VERBS, DOING)
     r.modifiers(MODIFIERS, DOING)
-    if not {"drag", "pull"} & set(ins.verbs):
+    by_stick = "use" in ins.verbs or any(k.kind == "with" and ins.resolve(k.b).head == "stick" for k in ins.links)
+    if not ({"drag", "pull"} & set(ins.verbs) or ("put" in ins.verbs and by_stick)):
+        # "move / bring / get the cube onto the target with the stick" is the drag; without the stick, a pick
         r.refuse("say what to do with the cube: drag it onto the target")
     names = scene_names(objects)
     for p in r.phrases(lambda p: p.head in HEADS):
