@@ -148,7 +148,9 @@ def understand(ins: Instruction, objects: list[str]) -> PutGoal | None:
             r.refuse(f"{p.text!r}: the scene has one drawer")
         r.use(p.index)
     into = [k for k in ins.links if k.kind in ("into", "to") and ins.resolve(k.b).head in ("drawer", "cabinet")]
-    if not into:
+    # "open the drawer and put the block inside (in)": the particle names the drawer just opened, the one container
+    inside = "in" in ins.modifiers and any(ins.resolve(p.index).head in ("drawer", "cabinet") for p in ins.phrases)
+    if not into and not inside:
         r.refuse("say where the block goes: into the drawer")
     for k in ins.links:
         a = ins.resolve(k.a).head if k.a is not None else ""
