@@ -7,8 +7,9 @@ what the masks and depth give:
 
 1. **Axes** (:func:`box_axes`): the largest plane in the cloud (RANSAC; a visible face) gives the first axis,
    its normal. It is not always a face (a slanted plane through two opposite faces' strips of a thin bar can hold
-   more points): when its box leaves the points farther than the plane tolerance, frames on the largest planes
-   found from local samples are tried too, and the one whose box lies closest to the points wins. The second
+   more points): when its box leaves the points farther than half the plane tolerance (RMS), frames on the
+   largest planes found from local samples are tried too, and the best of them wins if its box lies clearly
+   closer to the points (:data:`FACE_FRAME_GAIN`). The second
    axis is the normal of the largest plane perpendicular to the first (a second visible face); without one,
    the rotation about the first axis that minimises the area of the points' bounding rectangle (the outline
    of a single face). The third completes a right-handed frame.
@@ -239,8 +240,7 @@ def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,
     :data:`FACE_PLANES` largest planes found from local samples (faces), and the best of them wins if its residual
     is less than the winner's divided by :data:`FACE_FRAME_GAIN` (on small clouds every frame's residual is a
     fraction of a millimetre, and under depth noise about the noise: there the residual does not rank frames by
-    their direction). ``first`` is the largest plane ``(normal, inliers)`` when
-    already found.
+    their direction). ``first`` is the largest plane ``(normal, inliers)`` when already found.
     """
     rng = rng or np.random.default_rng(0)
     if len(P) < 6:
