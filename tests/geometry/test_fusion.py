@@ -5,7 +5,7 @@ import pytest
 
 from code_as_monitor.core.errors import GeometryError, ShapeMismatchError
 from code_as_monitor.geometry import fuse_points, remove_outliers, voxel_downsample
-from code_as_monitor.geometry.fusion import voxel_keys
+from code_as_monitor.geometry.fusion import remove_isolated, voxel_keys
 
 
 def test_fuse_points_concatenates_and_drops_non_finite() -> None:
@@ -53,3 +53,32 @@ def test_remove_outliers_edge_cases() -> None:
         remove_outliers(P, std_ratio=0.0)
     with pytest.raises(ShapeMismatchError):
         remove_outliers(np.zeros((5, 2)))
+
+
+def _isolated_by_counting(P: np.ndarray, radius: float, k: int) -> np.ndarray:
+    """Reference: keep the points with at least ``k`` others within ``radius`` (or 2.5 median spacings), counted
+    one by one."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(P)
+    spacing = float(np.median(tree.query(P[:: max(1, len(P) // 256)], k=2)[0][:, 1]))
+    r = max(radius, 2.5 * spacing)
+    D = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=2)
+    others = (D <= r).sum(axis=1) - 1  # minus the point itself
+    return P[others >= k]
+
+
+def test_remove_isolated_keeps_exactly_the_points_with_enough_neighbours() -> None:
+    rng = np.random.default_rng(3)
+    plane = np.c_[rng.uniform(0, 0.1, (600, 2)), rng.normal(0, 0.001, 600)]
+    strays = rng.uniform(-0.3, 0.3, (25, 3))
+    r = 2.0 ** -7  # exact in binary, as are the distances below: three neighbours exactly at the radius count
+    star = np.array([[1.0, 1.0, 1.0], [1.0 + r, 1.0, 1.0], [1.0, 1.0 + r, 1.0], [1.0, 1.0, 1.0 + r]])
+    dense = np.c_[rng.uniform(0, 0.04, (600, 2)), np.zeros(600)]  # median spacing well under r / 2.5
+    for P, radius, k in ((np.r_[plane, strays], 0.01, 3), (np.r_[plane, strays], 0.02, 6), (np.r_[dense, star], r, 3),
+                         (np.r_[dense, star], r, 1), (strays, 0.05, 1)):
+        got = remove_isolated(P, radius, k)
+        want = _isolated_by_counting(P, radius, k)
+        assert np.array_equal(got, want), (len(P), radius, k, len(got), len(want))
+    assert 0 < len(remove_isolated(np.r_[plane, strays], 0.01, 3)) < 625
+    assert len(remove_isolated(np.r_[dense, star], r, 3)) == 601  # the star's centre kept, its arms not

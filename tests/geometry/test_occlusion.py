@@ -116,3 +116,35 @@ def test_a_skin_on_the_silhouettes_border_is_not_seen_through_but_one_beyond_it_
     border, beyond = at_pixel(c + 1, r), at_pixel(c + 3, r)  # the table 4 cm below reads past both
     assert contradiction(border, border[0], np.empty((0, 3)), views)[0] == 0.0
     assert contradiction(beyond, beyond[0], np.empty((0, 3)), views)[0] == 1.0
+
+
+def _footprint_whole_image(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reference: the projected hull filled on a whole (H, W) image."""
+    import cv2
+
+    uv, _ = CAM.project(corners)
+    img = np.zeros((CAM.height, CAM.width), dtype=np.uint8)
+    cv2.fillConvexPoly(img, cv2.convexHull(np.rint(uv).astype(np.int32)), 1)
+    return np.nonzero(img)
+
+
+def test_a_box_footprint_is_the_pixels_of_its_projected_hull_also_across_the_image_border() -> None:
+    from code_as_monitor.geometry.occlusion import _footprint, box_corners
+
+    rng = np.random.default_rng(5)
+    n = 0
+    for _ in range(60):  # boxes inside, across the border of and partly outside the 320x240 view
+        c = rng.uniform(-0.3, 0.3, 3) * np.array([1.0, 1.0, 0.5])
+        axes = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        half = rng.uniform(0.005, 0.15, 3)
+        lo = c @ axes.T - half
+        corners = box_corners(Box(axes, lo, lo + 2 * half))
+        fp = _footprint(corners, CAM, (CAM.height, CAM.width))
+        want = _footprint_whole_image(corners)
+        if fp is None:
+            assert len(want[0]) == 0
+            continue
+        (r, cols), _ = fp
+        assert np.array_equal(r, want[0]) and np.array_equal(cols, want[1])
+        n += len(r) > 0
+    assert n > 40

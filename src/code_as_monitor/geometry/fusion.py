@@ -117,5 +117,32 @@ def remove_isolated(points: np.ndarray, radius: float, min_neighbours: int = 3) 
         return P.copy()
     tree = cKDTree(P)
     spacing = float(np.median(tree.query(P[:: max(1, len(P) // 256)], k=2)[0][:, 1]))
-    n = tree.query_ball_point(P, max(radius, 2.5 * spacing), return_length=True) - 1  # minus the point itself
-    return P[n >= min_neighbours]
+    r = max(radius, 2.5 * spacing)
+    keep = _surely_connected(P, r, min_neighbours)
+    ask = np.flatnonzero(~keep)
+    if len(ask):
+        # the (min_neighbours + 1)-th nearest, the point itself first, within r (the bound is strict, so its next
+        # float): the same test as counting every point in the ball, at the cost of a few neighbours
+        d, _ = tree.query(P[ask], k=min_neighbours + 1, distance_upper_bound=float(np.nextafter(r, np.inf)))
+        keep[ask] = np.isfinite(d[:, min_neighbours])
+    return P[keep]
+
+
+_FACE_STEPS = np.array([[0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+
+
+def _surely_connected(P: np.ndarray, r: float, k: int) -> np.ndarray:
+    """(N,) bool: points of ``P`` (N, 3) that certainly have ``k`` others within ``r`` metres, counted on a grid of
+    cells ``r / 2.5`` wide: the others in the point's cell and the six that share a face with it, all within
+    sqrt(6) cells (0.98 r) of it. False says nothing (the neighbours may lie in other cells)."""
+    ijk = np.floor(P / (r / 2.5)).astype(np.int64)
+    ijk -= ijk.min(axis=0) - 1  # >= 1: a neighbouring cell's index is >= 0
+    dims = ijk.max(axis=0) + 2
+    key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    cells, counts = np.unique(key, return_counts=True)
+    n = np.full(len(P), -1)  # minus the point itself
+    for step in _FACE_STEPS:
+        q = key + (step[0] * dims[1] + step[1]) * dims[2] + step[2]
+        i = np.minimum(np.searchsorted(cells, q), len(cells) - 1)
+        n += np.where(cells[i] == q, counts[i], 0)
+    return n >= k

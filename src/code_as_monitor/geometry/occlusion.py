@@ -66,11 +66,15 @@ def _footprint(corners: np.ndarray, camera: CameraModel, shape: tuple[int, int])
     lo, hi = np.floor(uv.min(axis=0)).astype(int), np.ceil(uv.max(axis=0)).astype(int)
     if hi[0] < 0 or hi[1] < 0 or lo[0] >= W or lo[1] >= H or (hi - lo).max() > 4 * max(H, W):
         return None
-    img = np.zeros((H, W), dtype=np.uint8)
-    hull = cv2.convexHull(np.rint(uv).astype(np.int32))
+    # filled in the window of the image the hull's bounds cover (integer vertices: the same pixels as filling the
+    # whole image), so a small box does not pay for clearing and scanning every pixel
+    r0, c0 = max(0, int(lo[1]) - 1), max(0, int(lo[0]) - 1)
+    r1, c1 = min(H, int(hi[1]) + 2), min(W, int(hi[0]) + 2)
+    img = np.zeros((max(0, r1 - r0), max(0, c1 - c0)), dtype=np.uint8)
+    hull = cv2.convexHull(np.rint(uv).astype(np.int32) - np.array([c0, r0], dtype=np.int32))
     cv2.fillConvexPoly(img, hull, 1)
     rows, cols = np.nonzero(img)
-    return (rows, cols), float(z.max())
+    return (rows + r0, cols + c0), float(z.max())
 
 
 def robot_hidden_fraction(box: Box, views: Sequence[OccluderView]) -> float:

@@ -48,12 +48,6 @@ def _label(img: np.ndarray, text: str, org: tuple[int, int], color: tuple[int, i
     return box
 
 
-def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> int:
-    w = min(a[2], b[2]) - max(a[0], b[0])
-    h = min(a[3], b[3]) - max(a[1], b[1])
-    return max(0, w) * max(0, h)
-
-
 def place_labels(anchors: list[tuple[int, int]], sizes: list[tuple[int, int, int]], shape: tuple[int, ...],
                  r: int) -> list[tuple[int, int]]:
     """Baseline-left origins for labels of ``sizes`` (w, h, baseline) next to ``anchors`` (u, v pixels),
@@ -63,19 +57,22 @@ def place_labels(anchors: list[tuple[int, int]], sizes: list[tuple[int, int, int
     (up-right first, as a single label is drawn) and takes the first spot inside the image that
     overlaps no label placed before it; failing that, the spot with the least overlap.
     """
-    placed: list[tuple[int, int, int, int]] = []
+    placed = np.zeros((len(anchors), 4), dtype=np.int64)  # backings (x0, y0, x1, y1) of the labels placed so far
     out: list[tuple[int, int]] = []
     H, W = shape[0], shape[1]
-    for (u, v), (w, h, base) in zip(anchors, sizes):
+    for i, ((u, v), (w, h, base)) in enumerate(zip(anchors, sizes)):
         best, best_cost = None, None
+        xmax, ymin, ymax = max(2, W - w - 4), h + 4, max(h + 4, H - base - 2)
+        prev = placed[:i]
         for k in (1, 2, 3):
             d = k * r + 2
             for dx, dy in ((d, -d), (d, d + h), (-d - w, -d), (-d - w, d + h)):
-                x, y = u + dx, v + dy
-                x = int(np.clip(x, 2, max(2, W - w - 4)))
-                y = int(np.clip(y, h + 4, max(h + 4, H - base - 2)))
+                x = min(max(int(u + dx), 2), xmax)
+                y = min(max(int(v + dy), ymin), ymax)
                 box = (x - 2, y - h - 3, x + w + 2, y + base + 1)
-                cost = sum(_overlap(box, p) for p in placed)
+                ow = np.minimum(prev[:, 2], box[2]) - np.maximum(prev[:, 0], box[0])
+                oh = np.minimum(prev[:, 3], box[3]) - np.maximum(prev[:, 1], box[1])
+                cost = int((np.maximum(ow, 0) * np.maximum(oh, 0)).sum())
                 if best_cost is None or cost < best_cost:
                     best, best_cost = (x, y, box), cost
                 if cost == 0:
@@ -84,7 +81,7 @@ def place_labels(anchors: list[tuple[int, int]], sizes: list[tuple[int, int, int
                 break
         assert best is not None
         out.append((best[0], best[1]))
-        placed.append(best[2])
+        placed[i] = best[2]
     return out
 
 
