@@ -63,8 +63,8 @@ def _isolated_by_counting(P: np.ndarray, radius: float, k: int) -> np.ndarray:
     tree = cKDTree(P)
     spacing = float(np.median(tree.query(P[:: max(1, len(P) // 256)], k=2)[0][:, 1]))
     r = max(radius, 2.5 * spacing)
-    D = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=2)
-    others = (D <= r).sum(axis=1) - 1  # minus the point itself
+    dist = np.linalg.norm(P[:, None, :] - P[None, :, :], axis=2)
+    others = (dist <= r).sum(axis=1) - 1  # minus the point itself
     return P[others >= k]
 
 
