@@ -66,3 +66,16 @@ def test_kabsch_recovers_a_rigid_motion_and_never_a_reflection():
     mirrored = src * np.array([1.0, 1.0, -1.0])  # no rotation maps a cloud onto its mirror image
     R, _, rms = kabsch(src, mirrored)
     assert np.isclose(np.linalg.det(R), 1.0) and rms > 0.1
+
+
+def test_cross_gives_numpys_values_for_pairs_and_rows() -> None:
+    from code_as_monitor.geometry.transforms import cross
+
+    rng = np.random.default_rng(11)
+    A, B = rng.normal(size=(500, 3)), rng.normal(size=(500, 3)) * 1e-3
+    assert np.array_equal(cross(A, B), np.cross(A, B))
+    assert np.array_equal(cross(A, B[:1]), np.cross(A, B[:1]))  # one row against many
+    for a, b in zip(A[:50], B[:50]):
+        got = cross(a, b)
+        assert got.shape == (3,) and np.array_equal(got, np.cross(a, b))
+    assert np.array_equal(cross(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])), [0.0, 0.0, 1.0])

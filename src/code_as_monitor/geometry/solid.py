@@ -44,6 +44,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from code_as_monitor.geometry.transforms import cross
+
 FACE_SPIKE = 0.12
 """An end of an axis is a seen face when at least this fraction of the points lie on its plane."""
 MIN_SECOND_FACE = 0.06
@@ -136,7 +138,7 @@ def _plane_hypotheses(P: np.ndarray, tol: float, iters: int, rng: np.random.Gene
     else:
         idx = rng.integers(0, n_pts, size=(iters, k))
     A, B = P[idx[:, 0]], P[idx[:, 1]]
-    N = np.cross(B - A, P[idx[:, 2]] - A) if perpendicular_to is None else np.cross(B - A, perpendicular_to[None, :])
+    N = cross(B - A, P[idx[:, 2]] - A) if perpendicular_to is None else cross(B - A, perpendicular_to[None, :])
     norm = np.linalg.norm(N, axis=1)
     ok = norm > 1e-9
     N, A = N[ok] / norm[ok, None], A[ok]
@@ -208,9 +210,9 @@ def _second_axis(P: np.ndarray, a1: np.ndarray, inl: np.ndarray, tol: float, rng
     """Axes (3, 3) rows with first axis ``a1``: the second from the largest plane perpendicular to ``a1`` among
     the points off the first plane (``~inl``), else from the minimum-area rectangle of the outline."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(a1[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(a1, helper)
+    e1 = cross(a1, helper)
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a1, e1)
+    e2 = cross(a1, e1)
     rest = P[~inl]
     a2 = None
     if len(rest) >= max(6, MIN_SECOND_FACE * len(P)):
@@ -222,7 +224,7 @@ def _second_axis(P: np.ndarray, a1: np.ndarray, inl: np.ndarray, tol: float, rng
         a2 = np.cos(ang) * e1 + np.sin(ang) * e2
     a2 = a2 - (a2 @ a1) * a1
     a2 /= np.linalg.norm(a2)
-    return np.stack([a1, a2, np.cross(a1, a2)])
+    return np.stack([a1, a2, cross(a1, a2)])
 
 
 def box_axes(P: np.ndarray, tol: float, rng: np.random.Generator | None = None,

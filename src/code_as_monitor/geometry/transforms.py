@@ -12,6 +12,17 @@ from code_as_monitor.core.camera import validate_rigid
 from code_as_monitor.core.errors import GeometryError
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The cross product of 3-vectors ``a`` and ``b`` ((3,) or (N, 3), broadcast on the last axis): the same
+    floating-point operations as :func:`numpy.cross`, so the same values, without its axis bookkeeping (ten times
+    cheaper on a single pair, which the box fits do hundreds of times per subgoal)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    if np.ndim(a) == 1 and np.ndim(b) == 1:
+        return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def make_transform(R: np.ndarray | None = None, t: np.ndarray | None = None) -> np.ndarray:
     """The (4, 4) transform with rotation ``R`` (3, 3) (identity if None) and translation ``t`` (3,)."""
     T = np.eye(4)
