@@ -13,7 +13,7 @@ import math
 import random
 
 import pytest
-from instruction_table import REFUSE, SCENES, TABLE, counts, drawer, judge, rope, sweep, tower
+from instruction_table import FIXED, REFUSE, SCENES, TABLE, counts, drawer, judge, rope, sweep, tower
 
 COLOURS = ("red", "green", "blue")
 
@@ -226,3 +226,14 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     blocks on the table" does; before, each of these was refused for the unknown pile."""
     band = (6, 14, 8) if "quarter" in instruction else (16, 24, 18)
     assert judge(instruction, SCENES["sweep"], sweep(*band)) == ("right", "")
+
+
+@pytest.mark.parametrize(("scene", "instruction"), [
+    ("pen", "put the pen into the holder with the tip down"),  # "with the" before a manner the family honours
+    ("pen", "insert the pen into the holder with its point first"),
+    ("tea", "tilt the teapot to pour the tea into the cup"),  # tilting is how the pot pours
+    ("tea", "pour the tea into the cup by tilting the teapot"),
+])
+def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str) -> None:
+    verdict, detail = judge(instruction, SCENES[scene], FIXED[scene])
+    assert verdict == "right", detail

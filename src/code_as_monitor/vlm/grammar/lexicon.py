@@ -102,6 +102,7 @@ VERBS: dict[str, str] = {
     "use": "use", "drag": "drag", "arrange": "arrange", "lay out": "arrange",
     "open": "open", "pull": "pull", "draw": "pull", "yank": "pull",
     "pour": "pour", "serve": "pour", "tip": "pour", "decant": "pour", "empty": "pour",
+    "tilt": "tilt", "incline": "tilt",
     "screw": "screw", "install": "screw", "turn": "turn", "rotate": "turn", "twist": "turn",
     "shelve": "shelve", "stow": "stow", "store": "stow", "return": "stow", "file": "stow", "tidy": "stow",
 }
@@ -229,6 +230,9 @@ MODIFIERS: dict[tuple[str, ...], str] = {
     "in_tower", ("on", "top", "of", "one", "another"): "in_tower", ("one", "on", "top", "of", "the", "other"):
     "in_tower", ("by", "its", "handle"): "by_handle", ("by", "the", "handle"): "by_handle",
 }
+MODIFIERS.update({("with", det, *k): v for k, v in list(MODIFIERS.items()) if v == "tip_down"
+                  for det in ("the", "its")})  # "with the tip down", "with its point first"
+MODIFIERS.update({("with", *k): v for k, v in list(MODIFIERS.items()) if v == "tip_down" and k[0] != "with"})
 """Manner and end states. Each family says which it honours; any other makes it refuse, naming the words."""
 
 NEGATIONS = {"not", "never", "without", "except", "but", "avoid", "avoiding", "instead"}

@@ -111,7 +111,7 @@ class TeaGoal:
     target: str
 
 
-VERBS = ("pour", "fill", "grasp", "pick")
+VERBS = ("pour", "fill", "grasp", "pick", "tilt")  # tilting the pot is how it pours: said with "pour", it adds nothing
 HEADS = ("tea", "teapot", "teacup", "pot", "cup")
 DOING = "pours the tea from the teapot into the teacup"
 
