@@ -194,3 +194,52 @@ def test_lifted_view_lifts_a_window_of_the_mask_as_the_whole_mask() -> None:
     np.testing.assert_array_equal(lifted.points(mask[12:19, 30:41], (12, 30)), whole)
     np.testing.assert_array_equal(lifted.points(mask[10:20, 28:44], (10, 28)), whole)
     assert not np.array_equal(lifted.points(mask[12:19, 30:41]), whole)  # the corner matters
+
+
+def _scattered_masks(rng: np.random.Generator, shape: tuple[int, int]) -> list[np.ndarray]:
+    """Empty, full, a pixel in each corner, and blobs anywhere (thinned at random)."""
+    H, W = shape
+    masks = [np.zeros(shape, bool), np.ones(shape, bool)]
+    for r, c in ((0, 0), (H - 1, W - 1), (0, W - 1), (H - 1, 0)):
+        m = np.zeros(shape, bool)
+        m[r, c] = True
+        masks.append(m)
+    for _ in range(30):
+        m = np.zeros(shape, bool)
+        for _ in range(rng.integers(1, 4)):  # one to three blobs: the window spans them all
+            r0, c0 = rng.integers(0, H - 8), rng.integers(0, W - 8)
+            m[r0:r0 + rng.integers(1, 9), c0:c0 + rng.integers(1, 9)] = True
+        m &= rng.random(shape) < 0.7
+        masks.append(m)
+    return masks
+
+
+def test_mask_pixels_are_numpy_nonzero_in_the_same_order() -> None:
+    from code_as_monitor.geometry.backproject import mask_pixels
+
+    rng = np.random.default_rng(8)
+    for m in _scattered_masks(rng, (48, 64)):
+        rows, cols = mask_pixels(m)
+        want_r, want_c = np.nonzero(m)
+        assert rows.dtype == np.int64 and cols.dtype == np.int64
+        np.testing.assert_array_equal(rows, want_r)
+        np.testing.assert_array_equal(cols, want_c)
+    with pytest.raises(ShapeMismatchError, match=r"\(48,\)"):
+        mask_pixels(np.zeros(48, bool))
+
+
+def test_lifted_view_points_of_any_mask_equal_the_whole_image_lift() -> None:
+    """Whole masks and windows at a corner, blobs anywhere: ``LiftedView.points`` equals ``lift_depth``'s points at
+    the mask's valid pixels, in row-major order."""
+    from code_as_monitor.geometry.backproject import LiftedView, lift_depth
+
+    rng = np.random.default_rng(7)
+    depth = rng.uniform(0.3, 2.0, (48, 64)).astype(np.float32)
+    depth[rng.random((48, 64)) < 0.15] = np.nan
+    cam = _cam()
+    pts, valid = lift_depth(depth, cam)
+    lifted = LiftedView(depth, cam)
+    for m in _scattered_masks(rng, (48, 64)):
+        want = pts[m & valid]
+        np.testing.assert_array_equal(lifted.points(m), want)
+        np.testing.assert_array_equal(lifted.points(m[5:, 3:], (5, 3)), pts[5:, 3:][m[5:, 3:] & valid[5:, 3:]])

@@ -30,7 +30,7 @@ def _held(clouds: dict[str, np.ndarray], gripper: float = 1.0) -> list[str]:
     tip = np.array([0.5, 0.0, 0.3])
     robot = RobotState(np.eye(4), gripper=gripper, ee_kind="gripper", ee_points={"tip": tip})
     obs = Observation(0.0, {}, robot=robot, objects=[*clouds, "robot"])
-    return Painter(_Seg())._held(obs, [(None, _Lifted(clouds), None)])
+    return list(Painter(_Seg())._held(obs, [(None, _Lifted(clouds), None)]))
 
 
 def _slab(nearest: float, size: float = 0.12) -> np.ndarray:

@@ -55,7 +55,7 @@ def test_the_search_near_the_tip_finds_what_the_whole_masks_find(task: str, acti
     found = 0
     for obs in frames:
         per_view = painter._segment_and_lift(obs, [], [])
-        held = painter._held(obs, per_view)
+        held = list(painter._held(obs, per_view))
         assert held == _every_mask(painter, obs, per_view), obs.t
         found += bool(held)
     assert found, "never held: the comparison would be vacuous"

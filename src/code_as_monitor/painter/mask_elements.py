@@ -37,7 +37,6 @@ from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
 from code_as_monitor.core.errors import CamError
 
 if TYPE_CHECKING:
-    from code_as_monitor.geometry.backproject import LiftedView
     from code_as_monitor.geometry.support import SupportPlane
 
 log = logging.getLogger(__name__)
@@ -79,7 +78,7 @@ def _fit(eid: int, spec: ElementSpec, views: list[tuple], counts: list[tuple[int
         # and which its siblings' (else a book's spine seen as a few pixels end-on in one view stops growing at
         # its own pixels and its cover's, read as another object just in front)
         few = (pc < least) if own else (ic < min_pixels)
-        clouds.append(np.empty((0, 3)) if few else _lift(lifted, mask))
+        clouds.append(np.empty((0, 3)) if few else lifted.points(mask))
         siblings = res.instance_mask & ~res.part_mask if spec.part and own else None
         carve_views.append(CarveView(np.asarray(mask, dtype=bool), view.depth, view.camera, siblings, robot))
     if not any(len(c) for c in clouds):
@@ -94,7 +93,7 @@ def _fit(eid: int, spec: ElementSpec, views: list[tuple], counts: list[tuple[int
     if not spec.part or not part_seen:
         el.object_cloud = el.cloud
     else:
-        whole = [_lift(lifted, r.instance_mask) for (_, lifted, r), (_, ic) in zip(views, counts) if ic >= min_pixels]
+        whole = [lifted.points(r.instance_mask) for (_, lifted, r), (_, ic) in zip(views, counts) if ic >= min_pixels]
         try:
             Q, vs, _ = fuse_part(whole, [], name=f"object of {spec.name!r}")
             el.object_cloud = cap_cloud(Q, voxel=vs)
@@ -102,12 +101,3 @@ def _fit(eid: int, spec: ElementSpec, views: list[tuple], counts: list[tuple[int
             el.object_cloud = None
     return el
 
-
-def _lift(lifted: LiftedView, mask: np.ndarray) -> np.ndarray:
-    """World points (N, 3) of the (H, W) bool ``mask``'s pixels, lifted from the window its pixels span: the same
-    points, in the same order, as lifting the whole mask, without scanning the rest of the image."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if not len(rows):
-        return np.empty((0, 3))
-    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
-    return lifted.points(mask[r0:r1, c0:c1], (r0, c0))

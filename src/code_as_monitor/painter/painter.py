@@ -182,23 +182,23 @@ class Painter:
         robots = [self._robot_mask(v) for v, _, _ in per_view]
         self._held_now = []
         if any(r is not None for r in robots):
-            self._held_now = self._held(obs, per_view)
-            for name in self._held_now:
-                for i, (v, _, _) in enumerate(per_view):
+            held = self._held(obs, per_view)
+            self._held_now = list(held)
+            for masks in held.values():
+                for i, m in enumerate(masks):
                     r = robots[i]
                     if r is not None:
-                        robots[i] = r | np.asarray(self.segmenter.segment(v, ElementSpec(name, name)).instance_mask,
-                                                   dtype=bool)
+                        robots[i] = r | np.asarray(m, dtype=bool)
         return robots
 
-    def _held(self, obs: Observation, per_view: list[tuple]) -> list[str]:
-        """The objects the robot holds: with its gripper closed (or suction on), those with a lifted mask point within
-        :data:`HELD_RADIUS` of its tip and nearly all within :data:`HELD_SIZE`. They move with the robot and hide parts
-        as it does."""
+    def _held(self, obs: Observation, per_view: list[tuple]) -> dict[str, list[np.ndarray]]:
+        """The objects the robot holds, each with its instance mask per view: with its gripper closed (or suction on),
+        those with a lifted mask point within :data:`HELD_RADIUS` of its tip and nearly all within :data:`HELD_SIZE`.
+        They move with the robot and hide parts as it does."""
         robot = obs.robot
         if robot is None or robot.gripper < 0.5 or not obs.objects:
-            return []
-        tip, held = robot.tip, []
+            return {}
+        tip, held = robot.tip, {}
         boxes = [None if getattr(v, "camera", None) is None else  # an object with no pixel there is not lifted
                  ball_pixel_box(v.camera, tip, HELD_RADIUS, v.depth.shape) for v, _, _ in per_view]
         for name in obs.objects:
@@ -215,7 +215,7 @@ class Painter:
             P = np.vstack([c for c in clouds if len(c)] or [np.empty((0, 3))])
             d = np.linalg.norm(P - tip, axis=1)
             if len(P) and float(d.min()) <= HELD_RADIUS and float(np.percentile(d, 95)) <= HELD_SIZE:
-                held.append(name)
+                held[name] = masks
         return held
 
     def _robot_mask(self, view: object) -> np.ndarray | None:

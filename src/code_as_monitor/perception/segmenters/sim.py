@@ -41,11 +41,15 @@ class SimSegmenter(Segmenter):
             )
         out = []
         made: dict[tuple[int, ...], np.ndarray] = {}  # ids -> their union, once per call (a rope's beads share it)
+        given: set[tuple[int, ...]] = set()  # unions already handed to a result
 
         def union(ids: list[int]) -> np.ndarray:
             key = tuple(ids)
             if key not in made:
                 made[key] = _union_mask(view.seg, ids)
+            if key not in given:  # its first result takes the union itself
+                given.add(key)
+                return made[key]
             return made[key].copy()  # every result owns its masks
 
         for spec in specs:
