@@ -170,9 +170,21 @@ DENIAL: list[tuple[str, str, str, str]] = [
     ("tile_huge", _a("a = np.tile(E[1], (10 ** 5, 10 ** 4))\nreturn True, 'x'"), "fault", "MemoryError"),
     ("list_of_arrays_huge", _a("x = [E[0]] * 10 ** 9\nreturn True, 'x'"), "fault", "MemoryError"),
     ("percentile_huge", _a("p = np.percentile(np.zeros(10 ** 9), 50)\nreturn True, 'x'"), "fault", "MemoryError"),
-    ("format_builtin_width", _a("s = format(1.5, '>999999999')\nreturn True, s"), "fault", "raised"),
-    # a 100 MB string: raised, late, or made in time and cut to the reason's length
-    ("percent_precision", _a("s = '%.*f' % (10 ** 8, 1.5)\nreturn True, s"), "bounded", "raised|deadline"),
+    # a literal spec or printf-style format string is bounded statically, as an f-string's is ...
+    ("format_builtin_width", _a("s = format(1.5, '>999999999')\nreturn True, s"), "rejected", "too wide"),
+    ("percent_precision", _a("s = '%.*f' % (10 ** 8, 1.5)\nreturn True, s"), "rejected", "('*')"),
+    ("percent_literal_precision", _a("s = '%.100000000f' % 1.5\nreturn True, s"), "rejected", "too wide"),
+    ("percent_literal_width", _a("s = 'off %100000000d mm' % 3\nreturn True, s"), "rejected", "too wide"),
+    ("percent_named_width", _a("s = '%(d)999999999.3f' % {'d': 1.5}\nreturn True, s"), "rejected", "too wide"),
+    # ... a computed one is not: raised, late, or made in time and cut to the reason's length
+    ("format_builtin_computed_width", _a("w = '>' + str(10 ** 9)\ns = format(1.5, w)\nreturn True, s"), "fault",
+     "raised"),
+    ("percent_computed_precision", _a("f = '%.' + str(10 ** 8) + 'f'\ns = f % 1.5\nreturn True, s"), "bounded",
+     "raised|deadline"),
+    ("fstring_in_fstring_width", _a("s = f\"{f'{1:>{10 ** 8}}'}\"\nreturn True, s"), "bounded",
+     "raised|deadline"),
+    ("shift_huge", _a("n = 1 << (10 ** 10)\nreturn True, 'x'"), "either", "MemoryError|deadline"),
+    ("join_huge", _a("s = ','.join(['x' * 10 ** 4] * 10 ** 5)\nreturn True, s"), "either", "MemoryError|deadline"),
     ("fstring_expression_width", _a("w = 10 ** 9\ns = f'{1.5:>{w}}'\nreturn True, s"), "fault", "MemoryError"),
     ("int_to_str_limit", _a("n = 7 ** 100000\nreturn True, str(n)"), "fault", "ValueError"),
     ("mutual_recursion", "def f(n):\n    return g(n + 1)\n\n\ndef g(n):\n    return f(n + 1)\n"
@@ -200,7 +212,7 @@ HOST_OUTPUT: list[tuple[str, str, str, str]] = [
     ("reason_lone_surrogate", _a("return True, 'bad \\ud800 text'"), "clean", "bad"),
     ("reason_wide_characters", _a("return True, '\\U0001F916' * 5000"), "clean", "\U0001F916"),
     ("reason_huge_array_str", _a("return True, str(np.zeros((1000, 1000)))"), "clean", "0."),
-    ("reason_format_fill", _a("return True, format('bell', '\\x07<300')"), "clean", "bell"),
+    ("reason_format_fill", _a("return True, format('bell', '\\x07<60')"), "clean", "bell"),
     ("margin_positive_inf", _a("return True, 'x', math.inf"), "fault", "not finite"),
     ("margin_negative_inf", _a("return False, 'x', -np.inf"), "fault", "not finite"),
     ("margin_overflow", _a("return True, 'x', 1e308 * 10"), "fault", "not finite"),
