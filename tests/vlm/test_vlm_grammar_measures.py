@@ -38,3 +38,20 @@ def test_a_measure_is_read_with_its_kind_and_words(text: str, value: float, kind
 def test_turn_as_a_verb_and_fractions_of_things_are_not_angles(text: str) -> None:
     ins = parse(text)
     assert not ins.measures and ins.verbs[0] in ("turn", "sweep")
+
+
+@pytest.mark.parametrize(("text", "want"), [
+    ("put the block in the drawer after opening it", "open it then put the block in the drawer"),
+    ("after opening the drawer, put the block in it", "open the drawer then put the block in it"),
+    ("open the drawer before putting the block in", "open the drawer then put the block in"),
+    ("before putting the block in, open the drawer", "open the drawer then put the block in"),
+    ("put the block in the drawer after you open it.", "open it then put the block in the drawer"),
+    ("stack green on red after that put blue on green", None),  # "after that" is a separator
+    ("put the pen in the holder before the book", None),  # no gerund: not a clause
+    ("after opening the drawer put the block in it", None),  # no comma: where the clause ends is not known
+])
+def test_clauses_are_put_in_the_order_they_happen(text: str, want: str | None) -> None:
+    from code_as_monitor.vlm.grammar.tokens import normalise, order_in_time
+
+    words = normalise(text)
+    assert " ".join(order_in_time(words)) == (" ".join(words) if want is None else want)

@@ -53,12 +53,32 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("sweep the dust into the dustpan with the broom", "sweep-to-dustpan", None),
     ("sweep the dirt into the pan", "sweep-to-dustpan", None),
     ("install the light bulb in the lamp", "screw-bulb", None),
+    ("brush the dirt into the dustpan with the broom", "sweep-to-dustpan", None),  # brushing is sweeping
 ])
 def test_paraphrases_read_as_their_task(text: str, task: str, goal: str | None) -> None:
     fam, g = understand(text, infer_objects(INSTRUCTIONS[task]))
     assert fam.task == task
     if goal is not None:
         assert g.part == goal
+
+
+@pytest.mark.parametrize("text", [
+    "put the block into the drawer after opening the drawer",
+    "after opening the drawer, put the block in it",
+    "put the block in the drawer after you open the drawer",
+    "put the block into the drawer after having opened the drawer",
+    "open the drawer before putting the block in it",
+    "before putting the block in the drawer, open the drawer",
+])
+def test_clauses_joined_by_after_or_before_are_planned_in_the_order_they_happen(text: str) -> None:
+    """"X after doing Y" is "do Y, then X" (before: refused, 'after' not understood): the same subgoals and checks as
+    the task's own instruction."""
+    feedbacks = [None] + ["success"] * 6
+
+    def chain(t: str) -> list:
+        return [(s.text, s.action, [(c.id, c.thresholds) for c in s.constraints], s.done) for s in _chain(t, feedbacks)]
+
+    assert chain(text) == chain(INSTRUCTIONS["put-in-drawer"])
 
 
 @pytest.mark.parametrize(("text", "objects", "why"), [

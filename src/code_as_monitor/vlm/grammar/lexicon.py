@@ -96,7 +96,7 @@ VERBS: dict[str, str] = {
     "pick": "pick", "lift": "pick", "grasp": "grasp", "grab": "grasp", "grip": "grasp", "take": "pick",
     "hold": "hold",
     "drop": "drop", "insert": "insert", "slot": "insert", "stick": "insert", "slide": "slide", "stand": "stand",
-    "push": "push", "sweep": "sweep", "shove": "push", "nudge": "push", "herd": "push",
+    "push": "push", "sweep": "sweep", "brush": "sweep", "shove": "push", "nudge": "push", "herd": "push",
     "close": "close", "enclose": "close", "seal": "close", "shut": "close", "cover": "close", "block": "close",
     "bridge": "close", "span": "close", "complete": "close", "fill": "fill",
     "use": "use", "drag": "drag", "arrange": "arrange", "lay out": "arrange",

@@ -1,7 +1,8 @@
 """From instruction text to categorised tokens (see :mod:`.lexicon` for the categories).
 
 Steps: lower-case, expand contractions ("don't" -> "do not"), split punctuation, numbers from units ("10cm"),
-hyphens ("bottom-up", "twenty-five"); then, left to right, the longest multi-word entry of the lexicon wins
+hyphens ("bottom-up", "twenty-five"); clauses in the order they happen ("X after doing Y" -> "do Y then X",
+:func:`order_in_time`); then, left to right, the longest multi-word entry of the lexicon wins
 (positions, directions, prepositions, comparisons, quantifiers, nouns, modifiers, separators, fillers),
 else a single word by its lemma ("stacking" -> stack, "blocks" -> block). Words that are both a verb and a
 noun ("stack", "block", "slot") are verbs at the start of a clause and nouns after a determiner, colour,
@@ -158,9 +159,51 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
     return Token("word", word, word)
 
 
+_TEMPORAL = ("after", "before")
+_TEMPORAL_SKIP = ("having", "you", "we")
+
+
+def _verb_base(word: str) -> str | None:
+    """The verb a gerund or participle stands for ("opening" -> "open", "putting" -> "put"), else None."""
+    if not word.endswith(("ing", "ed")):
+        return None
+    return next((lemma for lemma in lemmas(word)[1:] if lemma in lx.VERBS), None)
+
+
+def order_in_time(words: list[str]) -> list[str]:
+    """Clauses put in the order they happen: "X after doing Y" and "after doing Y, X" read as "do Y then X";
+    "X before doing Y" and "before doing Y, X" as "X then do Y". Only when a gerund or participle follows the word
+    ("after that" is a separator; "the drawer before the lamp" is left alone)."""
+    for i, w in enumerate(words):
+        if w not in _TEMPORAL:
+            continue
+        j = i + 1
+        while j < len(words) and words[j] in _TEMPORAL_SKIP:
+            j += 1
+        if j >= len(words):
+            continue
+        base = _verb_base(words[j]) or (words[j] if j > i + 1 and words[j] in lx.VERBS else None)  # "after you open"
+        if base is None:
+            continue
+        if i == 0:
+            c = next((k for k in range(j, len(words)) if words[k] in (",", ";")), None)
+            if c is None:
+                continue
+            event, main = [base, *words[j + 1:c]], words[c + 1:]  # "after opening the drawer, put ..."
+        else:
+            main, event = words[:i], [base, *words[j + 1:]]
+            while main and main[-1] in (",", ";"):
+                main = main[:-1]
+        first, second = (event, main) if w == "after" else (main, event)
+        while first and first[-1] in (".", "!"):
+            first = first[:-1]
+        return order_in_time([*first, "then", *second])
+    return words
+
+
 def tokenize(text: str) -> list[Token]:
     """The instruction as tokens (see the module docstring)."""
-    words = normalise(text)
+    words = order_in_time(normalise(text))
     out: list[Token] = []
     i = 0
     while i < len(words):
