@@ -17,6 +17,7 @@ import numpy as np
 
 from code_as_monitor.core.camera import CameraModel
 from code_as_monitor.geometry.solid import Box
+from code_as_monitor.geometry.stats import percentile
 from code_as_monitor.geometry.support import SupportPlane
 
 CARVE_GRID = 4
@@ -192,7 +193,7 @@ def _spread(box: Box, a: int, points: np.ndarray | None) -> float:
     if points is None or len(points) < 10:
         return float(box.extent[a])
     s = np.asarray(points, dtype=np.float64) @ box.axes[a]
-    lo, hi = np.percentile(s, [5.0, 95.0])
+    lo, hi = percentile(s, [5.0, 95.0])
     return float(hi - lo)
 
 

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from code_as_monitor.core.errors import GeometryError, ShapeMismatchError
+from code_as_monitor.geometry.stats import median
 
 
 def _as_cloud(points: np.ndarray, what: str = "points") -> np.ndarray:
@@ -116,7 +117,7 @@ def remove_isolated(points: np.ndarray, radius: float, min_neighbours: int = 3) 
     if len(P) <= min_neighbours:
         return P.copy()
     tree = cKDTree(P)
-    spacing = float(np.median(tree.query(P[:: max(1, len(P) // 256)], k=2)[0][:, 1]))
+    spacing = float(median(tree.query(P[:: max(1, len(P) // 256)], k=2)[0][:, 1]))
     r = max(radius, 2.5 * spacing)
     keep = _surely_connected(P, r, min_neighbours)
     ask = np.flatnonzero(~keep)

@@ -20,6 +20,7 @@ from code_as_monitor.core.elements import MAX_CLOUD_POINTS
 from code_as_monitor.core.errors import GeometryError, NoValidDepthError
 from code_as_monitor.geometry.backproject import DEFAULT_MAX_DEPTH, backproject_mask
 from code_as_monitor.geometry.fusion import fuse_points, remove_isolated, voxel_downsample
+from code_as_monitor.geometry.stats import percentile
 
 MIN_FINE_VOXEL = 0.004
 """Metres: the finest voxel of the downsampling grid."""
@@ -34,7 +35,7 @@ def fine_voxel_size(points: np.ndarray) -> float:
     """Fine downsampling voxel (metres) for a cloud (N, 3): max(4 mm, robust extent / 100)."""
     if len(points) < 2:
         return MIN_FINE_VOXEL
-    lo, hi = np.percentile(points, [2.0, 98.0], axis=0)
+    lo, hi = percentile(np.asarray(points, dtype=np.float64), [2.0, 98.0], axis=0)
     return float(max(MIN_FINE_VOXEL, (hi - lo).max() / FINE_VOXELS_ACROSS))
 
 

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from code_as_monitor.geometry.stats import median
 from code_as_monitor.geometry.transforms import cross
 
 FACE_SPIKE = 0.12
@@ -290,7 +291,7 @@ def _mad_noise(P: np.ndarray, n: np.ndarray, inl: np.ndarray) -> float:
     if inl.sum() < 3:
         return 0.0
     r = P[inl] @ n
-    return float(1.4826 * np.median(np.abs(r - np.median(r))))
+    return float(1.4826 * median(np.abs(r - median(r))))
 
 
 def fit_box(P: np.ndarray, voxel: float, rng: np.random.Generator | None = None, noise: float | None = None,

@@ -22,6 +22,7 @@ from code_as_monitor.core.elements import Element, ElementKind, ElementSpec
 from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.geometry.occlusion import any_point_near, ball_pixel_box
+from code_as_monitor.geometry.stats import percentile
 from code_as_monitor.painter.carry_over import CarryDecision, Key, KnownElement, candidate, carry_over, key_of
 from code_as_monitor.painter.draw import draw_elements
 from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
@@ -214,7 +215,7 @@ class Painter:
                 continue
             P = np.vstack([c for c in clouds if len(c)] or [np.empty((0, 3))])
             d = np.linalg.norm(P - tip, axis=1)
-            if len(P) and float(d.min()) <= HELD_RADIUS and float(np.percentile(d, 95)) <= HELD_SIZE:
+            if len(P) and float(d.min()) <= HELD_RADIUS and float(percentile(d, 95.0)) <= HELD_SIZE:
                 held[name] = masks
         return held
 
