@@ -89,7 +89,15 @@ TABLE: list[tuple[str, str, Any]] = [
      tower("blue", "green", "red")),
     ("stack", "Please pile the blocks up with the red one as the base, the blue one in the middle and the green "
               "one at the top", tower("red", "blue", "green")),
+    ("stack", "stack all three blocks into a single tower, red at the base and blue at the top",
+     tower("red", "green", "blue")),
+    ("stack", "build a tower of red, green and blue blocks, bottom to top", tower("red", "green", "blue")),
+    ("stack", "build one tower of blue, green and red from the top down", tower("red", "green", "blue")),
+    ("stack", "stack red and green, red at the bottom", tower("red", "green")),
+    ("stack", "stack red, green and blue, blue at the bottom", tower("blue", "green", "red")),
     # --- stack-in-order: impossible or under-specified -----------------------------------------------------
+    ("stack", "stack the blocks into two towers", REFUSE),
+    ("stack", "stack red, green and blue, green at the bottom", REFUSE),
     ("stack", "stack the yellow block on the red block", REFUSE),
     ("stack", "stack red on green and green on red", REFUSE),
     ("stack", "stack the blocks with blue on top", REFUSE),

@@ -228,12 +228,18 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     assert judge(instruction, SCENES["sweep"], sweep(*band)) == ("right", "")
 
 
-@pytest.mark.parametrize(("scene", "instruction"), [
-    ("pen", "put the pen into the holder with the tip down"),  # "with the" before a manner the family honours
-    ("pen", "insert the pen into the holder with its point first"),
-    ("tea", "tilt the teapot to pour the tea into the cup"),  # tilting is how the pot pours
-    ("tea", "pour the tea into the cup by tilting the teapot"),
+@pytest.mark.parametrize(("scene", "instruction", "want"), [
+    ("pen", "put the pen into the holder with the tip down", FIXED["pen"]),  # "with the" before a manner it honours
+    ("pen", "insert the pen into the holder with its point first", FIXED["pen"]),
+    ("tea", "tilt the teapot to pour the tea into the cup", FIXED["tea"]),  # tilting is how the pot pours
+    ("tea", "pour the tea into the cup by tilting the teapot", FIXED["tea"]),
+    # before: "1 blocks: the scene has 3" (the count of the tower read as a count of blocks)
+    ("stack", "stack all three blocks into a single tower, red at the base and blue at the top",
+     tower("red", "green", "blue")),
+    ("stack", "build a tower of red, green and blue blocks, bottom to top",  # before: the list began after "of"
+     tower("red", "green", "blue")),
+    ("stack", "stack red and green, red at the bottom", tower("red", "green")),  # before: "contradictory"
 ])
-def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str) -> None:
-    verdict, detail = judge(instruction, SCENES[scene], FIXED[scene])
+def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
+    verdict, detail = judge(instruction, SCENES[scene], want)
     assert verdict == "right", detail

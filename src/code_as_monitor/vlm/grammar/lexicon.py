@@ -226,9 +226,13 @@ MODIFIERS: dict[tuple[str, ...], str] = {
     ("in", "that", "order"): "in_order", ("in", "any", "order"): "any_order",
     ("in", "no", "particular", "order"): "any_order", ("in", "whatever", "order"): "any_order",
     ("in", "the", "order"): "in_order", ("in", "sequence"): "in_order",
-    ("in", "a", "tower"): "in_tower", ("into", "a", "tower"): "in_tower", ("on", "top", "of", "each", "other"):
-    "in_tower", ("on", "top", "of", "one", "another"): "in_tower", ("one", "on", "top", "of", "the", "other"):
-    "in_tower", ("by", "its", "handle"): "by_handle", ("by", "the", "handle"): "by_handle",
+    ("in", "a", "tower"): "in_tower", ("into", "a", "tower"): "in_tower", ("into", "one", "tower"): "in_tower",
+    ("in", "one", "tower"): "in_tower", ("into", "a", "single", "tower"): "in_tower",
+    ("in", "a", "single", "tower"): "in_tower", ("into", "a", "stack"): "in_tower",
+    ("into", "one", "stack"): "in_tower", ("into", "a", "single", "stack"): "in_tower",
+    ("on", "top", "of", "each", "other"): "in_tower", ("on", "top", "of", "one", "another"): "in_tower",
+    ("one", "on", "top", "of", "the", "other"): "in_tower", ("by", "its", "handle"): "by_handle",
+    ("by", "the", "handle"): "by_handle",
 }
 MODIFIERS.update({("with", det, *k): v for k, v in list(MODIFIERS.items()) if v == "tip_down"
                   for det in ("the", "its")})  # "with the tip down", "with its point first"

@@ -292,6 +292,8 @@ class _Parser:
 
     def listings(self) -> list[Listing]:
         linked = {k.b for k in self.links} | {k.a for k in self.links if k.a is not None}
+        # "a tower of red, green and blue": the first member is the complement of "of", the others follow it
+        members = {k.b for k in self.links if k.kind == "of" and k.a is not None and self.phrases[k.a].head == "tower"}
         out: list[Listing] = []
         run: list[int] = []
         conns: list[str] = []
@@ -307,7 +309,7 @@ class _Parser:
                 continue
             if len(run) >= 2:
                 out.append(Listing(tuple(run), tuple(conns)))
-            run, conns = ([p.index], []) if p.index not in linked else ([], [])
+            run, conns = ([p.index], []) if p.index not in linked or p.index in members else ([], [])
         if len(run) >= 2:
             out.append(Listing(tuple(run), tuple(conns)))
         return out

@@ -95,7 +95,10 @@ def understand(ins: Instruction, objects: list[str]) -> StackGoal | None:
                 r.refuse(f"{p.text!r}: which block? name it by its colour")
             if q.head == "block" and not (q.plural or q.quantity):
                 r.refuse(f"{p.text!r}: which block? name it by its colour")
-            if q.quantity is not None:
+            if q.quantity is not None and q.head == "tower":  # "into a single tower", "one tower": the one it builds
+                if q.quantity.kind != "number" or q.quantity.value != 1 or q.quantity.bound not in ("plain", "exact"):
+                    r.refuse(f"{q.quantity.text!r}: the kb builds one tower")
+            elif q.quantity is not None:
                 if q.quantity.kind not in ("number", "all") or q.quantity.bound not in ("plain", "exact"):
                     r.refuse(f"{q.quantity.text!r}: say which blocks")
                 count = len(blocks) if q.quantity.kind == "all" and q.quantity.of_total is None else (
@@ -160,10 +163,15 @@ def _listings(ins: Instruction, r: Reading, refs: dict[int, str], c: OrderConstr
         r.refuse("the instruction reads both from the bottom and from the top")
     for lst in ins.listings:
         items = [i for i in lst.items if i in refs]
+        again = next((k for k in range(1, len(items)) if refs[items[k]] in {refs[i] for i in items[:k]}), None)
+        if again is not None:  # "red and green, red at the bottom": the block named again is not a new member
+            items = items[:again]
         if len(items) < 2 or sum(bool(ins.resolve(i).position) for i in items) > 1:
             continue  # "green at the bottom and blue on top": the positions say it, not the listing
-        first, last = ins.resolve(items[0]), ins.resolve(items[-1])
-        down = "down" in dirs or first.position == "top" or last.position in ("bottom", "table")
+        # where the first or last member sits, said with it or with its mention again ("..., blue at the bottom")
+        where = {refs[i]: ins.resolve(i).position for i in lst.items if i in refs and ins.resolve(i).position}
+        first, last = where.get(refs[items[0]]), where.get(refs[items[-1]])
+        down = "down" in dirs or first == "top" or last in ("bottom", "table")
         seq = [refs[i] for i in items]
         c.sequences.append(seq[::-1] if down else seq)
         r.used_directions = True
