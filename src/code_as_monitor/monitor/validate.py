@@ -9,7 +9,7 @@ A monitor program is untrusted model output. Before it ever reaches the sandbox 
 * expressions: arithmetic, comparisons, boolean logic, conditional expressions, subscripts and slices,
   tuples/lists/dicts/sets, comprehensions, f-strings, constants and calls;
 * formats: widths and precisions written in an f-string's spec, a literal ``format()`` spec or a printf-style
-  string before ``%`` are at most :data:`MAX_FORMAT_NUMBER` (no ``*``);
+  string before ``%`` are at most :data:`~.formats.MAX_FORMAT_NUMBER` (no ``*``; :mod:`.formats`);
 * names: the check arguments, names the program binds itself, a few safe builtins, ``np``, ``math`` and
   the geometry helpers (:data:`code_as_monitor.geometry.helpers.MONITOR_HELPERS`);
 * attributes: allow-listed members of ``np``, ``np.linalg`` and ``math``, ``H.t``, and a short list of
@@ -43,13 +43,13 @@ from code_as_monitor.monitor.allowlist import (
     SAFE_BUILTINS,
     VALUE_ATTRS,
 )
+from code_as_monitor.monitor.formats import format_errors
 
 MAX_SOURCE_CHARS = 50_000
 MAX_NODES = 5_000
 MAX_DEPTH = 80
 MAX_INT = 10**9
 MAX_STR = 2_000
-MAX_FORMAT_NUMBER = 64
 MAX_ERRORS = 12
 
 CHECK_PARAMS = ("E", "H", "t")
@@ -90,27 +90,6 @@ _ALLOWED_NODES: tuple[type, ...] = (
     ast.boolop, ast.operator, ast.unaryop, ast.cmpop, ast.Load, ast.Store,
 )
 _PARTS_OF_REJECTED: tuple[type, ...] = (ast.ExceptHandler, ast.withitem, ast.alias, ast.match_case)
-_NUMBER_RE = re.compile(r"\d+")
-_PERCENT_SPEC_RE = re.compile(r"%(?:\([^)]*\))?[#0 +-]*(\*|\d+)?(?:\.(\*|\d*))?[hlL]?(.)", re.DOTALL)
-"""One ``%`` conversion of a printf-style format string: (width, precision, conversion type)."""
-
-
-def _percent_spec_errors(text: str) -> list[str]:
-    """Why the printf-style format string ``text`` is refused: a width or precision over
-    :data:`MAX_FORMAT_NUMBER` (``'%.100000000f' % x`` builds a 100 MB string) or taken from the arguments
-    (``'%*d'``); [] when it is fine."""
-    errors = []
-    for m in _PERCENT_SPEC_RE.finditer(text):
-        width, precision, conv = m.group(1), m.group(2), m.group(3)
-        if conv == "%":
-            continue
-        if "*" in (width, precision):
-            errors.append(f"format string {text!r}: a width or precision from the arguments ('*') is not allowed")
-        elif any(n and int(n) > MAX_FORMAT_NUMBER for n in (width, precision)):
-            errors.append(f"format string {text!r} is too wide (widths and precisions <= {MAX_FORMAT_NUMBER})")
-    return errors
-
-
 def _describe(node: ast.AST) -> str:
     return type(node).__name__
 
@@ -195,6 +174,8 @@ class _Checker(ast.NodeVisitor):
             pass  # the statement it belongs to is reported already
         elif not isinstance(node, _ALLOWED_NODES):
             self.error(node, f"{_describe(node)} is not allowed in a monitor program")
+        for why in format_errors(node):  # widths and precisions written in a format (:mod:`.formats`)
+            self.error(node, why)
         super().generic_visit(node)  # keep going: the coder gets every problem at once
 
     # --- statements -------------------------------------------------------------------------------
@@ -281,9 +262,6 @@ class _Checker(ast.NodeVisitor):
             if not ok and name not in BANNED_NAMES and not name.startswith("__") and name in self.bound:
                 self.error(node, f"calling {name!r} is not allowed: only np, math, the geometry helpers, "
                                  "safe builtins and the program's own functions may be called")
-            spec = node.args[1] if name == "format" and len(node.args) > 1 else None
-            if isinstance(spec, ast.Constant) and isinstance(spec.value, str):
-                self._check_format_spec(node, spec.value)
         elif not isinstance(func, ast.Attribute):
             self.error(node, "a call must name its function directly (np.f, math.f, a helper or a def)")
         else:
@@ -319,26 +297,6 @@ class _Checker(ast.NodeVisitor):
             self.error(node, f"integer literal too large (|x| > {MAX_INT})")
         elif isinstance(v, str) and len(v) > MAX_STR:
             self.error(node, f"string literal too long ({len(v)} > {MAX_STR} characters)")
-
-    def visit_BinOp(self, node: ast.BinOp) -> None:
-        left = node.left
-        if isinstance(node.op, ast.Mod) and isinstance(left, ast.Constant) and isinstance(left.value, str):
-            for why in _percent_spec_errors(left.value):
-                self.error(node, why)
-        self.generic_visit(node)
-
-    def visit_FormattedValue(self, node: ast.FormattedValue) -> None:
-        spec = node.format_spec
-        if spec is not None:
-            texts = [p.value for p in ast.walk(spec) if isinstance(p, ast.Constant) and isinstance(p.value, str)]
-            for text in texts:
-                self._check_format_spec(node, text)
-        self.generic_visit(node)
-
-    def _check_format_spec(self, node: ast.AST, text: str) -> None:
-        """An f-string's or ``format()``'s spec: every number in it at most :data:`MAX_FORMAT_NUMBER`."""
-        if any(int(n) > MAX_FORMAT_NUMBER for n in _NUMBER_RE.findall(text)):
-            self.error(node, f"format spec {text!r} is too wide (numbers <= {MAX_FORMAT_NUMBER})")
 
     def visit_comprehension(self, node: ast.comprehension) -> None:
         if node.is_async:
