@@ -95,6 +95,9 @@ TABLE: list[tuple[str, str, Any]] = [
     ("stack", "build one tower of blue, green and red from the top down", tower("red", "green", "blue")),
     ("stack", "stack red and green, red at the bottom", tower("red", "green")),
     ("stack", "stack red, green and blue, blue at the bottom", tower("blue", "green", "red")),
+    ("stack", "put the blue block on top of the green block, which sits on the red block",
+     tower("red", "green", "blue")),
+    ("stack", "put the green block on the red block, which stands on the table", tower("red", "green")),
     # --- stack-in-order: impossible or under-specified -----------------------------------------------------
     ("stack", "stack the blocks into two towers", REFUSE),
     ("stack", "stack red, green and blue, green at the bottom", REFUSE),

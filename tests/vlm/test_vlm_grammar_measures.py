@@ -55,3 +55,19 @@ def test_clauses_are_put_in_the_order_they_happen(text: str, want: str | None) -
 
     words = normalise(text)
     assert " ".join(order_in_time(words)) == (" ".join(words) if want is None else want)
+
+
+@pytest.mark.parametrize(("text", "want"), [
+    ("put blue on the green block, which sits on the red block",
+     "put blue on the green block and the green block on the red block"),
+    ("stack blue on green, which is on top of red", "stack blue on green and green on top of red"),
+    ("put the green block on the red block, which stands on the table",
+     "put the green block on the red block and the red block on the table"),
+    ("put the blue block on the green block, which is red", None),  # not a place: left to the reader
+    ("stack blue on the block that is on red", None),  # restrictive (no comma): it says which block
+])
+def test_a_clause_placing_what_it_follows_reads_as_another_placement(text: str, want: str | None) -> None:
+    from code_as_monitor.vlm.grammar.tokens import normalise, relative_places
+
+    words = normalise(text)
+    assert " ".join(relative_places(words)) == (" ".join(words) if want is None else want)

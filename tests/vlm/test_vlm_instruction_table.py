@@ -239,6 +239,8 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     ("stack", "build a tower of red, green and blue blocks, bottom to top",  # before: the list began after "of"
      tower("red", "green", "blue")),
     ("stack", "stack red and green, red at the bottom", tower("red", "green")),  # before: "contradictory"
+    ("stack", "put the blue block on top of the green block, which sits on the red block",  # before: "which"
+     tower("red", "green", "blue")),
 ])
 def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
     verdict, detail = judge(instruction, SCENES[scene], want)

@@ -201,9 +201,33 @@ def order_in_time(words: list[str]) -> list[str]:
     return words
 
 
+_RESTS = ("is", "sits", "rests", "stands", "lies", "sit", "rest", "stand", "lie")
+
+
+def relative_places(words: list[str]) -> list[str]:
+    """A non-restrictive clause that places what it follows, read as another placement: "put blue on the green block,
+    which sits on the red block" -> "put blue on the green block and the green block on the red block". Only after a
+    comma, with "which" or "that", a verb of resting and a preposition (the block it follows is named again: its words
+    back to the preposition, verb or separator before them)."""
+    for c in range(1, len(words) - 3):
+        if words[c] != "," or words[c + 1] not in ("which", "that") or words[c + 2] not in _RESTS:
+            continue
+        if words[c + 3] not in lx.PREPS and tuple(words[c + 3:c + 6]) not in lx.MULTI_PREPS \
+                and tuple(words[c + 3:c + 5]) not in lx.MULTI_PREPS:
+            continue
+        j = c
+        while j > 0 and words[j - 1] not in lx.PREPS and (words[j - 1],) not in lx.SEPARATORS \
+                and not any(lemma in lx.VERBS and lemma not in lx.NOUNS for lemma in lemmas(words[j - 1])):
+            j -= 1  # a word both verb and noun ("block") is the noun here
+        if j == c:
+            continue
+        return relative_places([*words[:c], "and", *words[j:c], *words[c + 3:]])
+    return words
+
+
 def tokenize(text: str) -> list[Token]:
     """The instruction as tokens (see the module docstring)."""
-    words = order_in_time(normalise(text))
+    words = order_in_time(relative_places(normalise(text)))
     out: list[Token] = []
     i = 0
     while i < len(words):
