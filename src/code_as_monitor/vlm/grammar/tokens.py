@@ -1,8 +1,9 @@
 """From instruction text to categorised tokens (see :mod:`.lexicon` for the categories).
 
 Steps: lower-case, expand contractions ("don't" -> "do not"), split punctuation, numbers from units ("10cm"),
-hyphens ("bottom-up", "twenty-five"); clauses in the order they happen ("X after doing Y" -> "do Y then X",
-:func:`order_in_time`); then, left to right, the longest multi-word entry of the lexicon wins
+hyphens ("bottom-up", "twenty-five"); a comma clause placing what it follows as another placement (",
+which sits on the red block", :func:`relative_places`); clauses in the order they happen ("X after doing Y" ->
+"do Y then X", :func:`order_in_time`); then, left to right, the longest multi-word entry of the lexicon wins
 (positions, directions, prepositions, comparisons, quantifiers, nouns, modifiers, separators, fillers),
 else a single word by its lemma ("stacking" -> stack, "blocks" -> block). Words that are both a verb and a
 noun ("stack", "block", "slot") are verbs at the start of a clause and nouns after a determiner, colour,
@@ -207,7 +208,7 @@ _RESTS = ("is", "sits", "rests", "stands", "lies", "sit", "rest", "stand", "lie"
 def relative_places(words: list[str]) -> list[str]:
     """A non-restrictive clause that places what it follows, read as another placement: "put blue on the green block,
     which sits on the red block" -> "put blue on the green block and the green block on the red block". Only after a
-    comma, with "which" or "that", a verb of resting and a preposition (the block it follows is named again: its words
+    comma, with "which" or "that", a verb of resting and a preposition (what it follows is named again: its words
     back to the preposition, verb or separator before them)."""
     for c in range(1, len(words) - 3):
         if words[c] != "," or words[c + 1] not in ("which", "that") or words[c + 2] not in _RESTS:
