@@ -54,6 +54,8 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("sweep the dirt into the pan", "sweep-to-dustpan", None),
     ("install the light bulb in the lamp", "screw-bulb", None),
     ("brush the dirt into the dustpan with the broom", "sweep-to-dustpan", None),  # brushing is sweeping
+    ("put the bulb in its socket and screw it in", "screw-bulb", None),  # putting it in is part of the screwing
+    ("pick up the bulb and screw it into the lamp", "screw-bulb", None),
 ])
 def test_paraphrases_read_as_their_task(text: str, task: str, goal: str | None) -> None:
     fam, g = understand(text, infer_objects(INSTRUCTIONS[task]))
@@ -88,6 +90,7 @@ def test_clauses_joined_by_after_or_before_are_planned_in_the_order_they_happen(
     ("drag the cube with the stick", ["stick", "cube", "target", "table"], "onto the target"),
     ("screw the bulb in by 2 turns", ["lamp", "table"], "number of turns"),
     ("screw the bulb 3 turns", ["lamp", "table"], "number of turns"),
+    ("put the bulb in the lamp", ["lamp", "table"], "cannot 'put'"),  # putting alone is not screwing
 ])
 def test_what_the_rules_cannot_honour_is_refused(text: str, objects: list[str], why: str) -> None:
     with pytest.raises(InstructionError, match=why):

@@ -78,6 +78,8 @@ class BulbGoal:
 
 
 VERBS = ("screw", "turn", "grasp")
+STEPS = ("put", "insert", "pick")
+"""Verbs read as steps of the screwing when "screw" is said too (alone, "put the bulb in the lamp" is refused)."""
 MODIFIERS = ("in", "fully", "down")
 HEADS = ("bulb", "lamp", "socket")
 DOING = "screws the light bulb into its socket (about one turn)"
@@ -91,8 +93,10 @@ def understand(ins: Instruction, objects: list[str]) -> BulbGoal | None:
     """The lamp grounded on ``objects``; None when the instruction is not about a bulb."""
     if not claims(ins):
         return None
-    r = Reading(ins, "screw-bulb", heads=HEADS, verbs=VERBS)
-    r.verbs(VERBS, DOING)
+    # "put the bulb in its socket and screw it in": putting or picking it up is part of the screwing, said with it
+    verbs = VERBS + (STEPS if "screw" in ins.verbs else ())
+    r = Reading(ins, "screw-bulb", heads=HEADS, verbs=verbs)
+    r.verbs(verbs, DOING)
     r.modifiers(MODIFIERS, DOING)
     if "screw" not in ins.verbs and not ("turn" in ins.verbs and "in" in ins.modifiers):
         r.refuse("say what to do with the bulb: screw it in")
