@@ -90,6 +90,8 @@ _ALLOWED_NODES: tuple[type, ...] = (
     ast.boolop, ast.operator, ast.unaryop, ast.cmpop, ast.Load, ast.Store,
 )
 _PARTS_OF_REJECTED: tuple[type, ...] = (ast.ExceptHandler, ast.withitem, ast.alias, ast.match_case)
+
+
 def _describe(node: ast.AST) -> str:
     return type(node).__name__
 
