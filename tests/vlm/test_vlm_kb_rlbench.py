@@ -50,6 +50,8 @@ def test_plan_matches_the_task_default_plan(task: str) -> None:
     ("drag the cube onto the target with the stick", "drag-stick", None),
     ("move the cube onto the red target using the stick", "drag-stick", None),  # the stick's move is the drag
     ("bring the cube to the target with the stick", "drag-stick", None),
+    ("drag the cube onto the red square with the stick", "drag-stick", None),  # the target is a red square
+    ("use the stick to pull the blue cube onto the square", "drag-stick", None),
     ("sweep the dust into the dustpan with the broom", "sweep-to-dustpan", None),
     ("sweep the dirt into the pan", "sweep-to-dustpan", None),
     ("install the light bulb in the lamp", "screw-bulb", None),
@@ -88,6 +90,7 @@ def test_clauses_joined_by_after_or_before_are_planned_in_the_order_they_happen(
     ("screw in the green bulb", ["lamp", "table"], "red"),
     ("sweep half of the dirt into the dustpan", ["broom", "dustpan", "dirt_0", "table"], "all the dirt"),
     ("drag the cube with the stick", ["stick", "cube", "target", "table"], "onto the target"),
+    ("drag the cube onto the green square with the stick", ["stick", "cube", "target", "table"], "target is red"),
     ("screw the bulb in by 2 turns", ["lamp", "table"], "number of turns"),
     ("screw the bulb 3 turns", ["lamp", "table"], "number of turns"),
     ("put the bulb in the lamp", ["lamp", "table"], "cannot 'put'"),  # putting alone is not screwing

@@ -62,7 +62,10 @@ class DragGoal:
 
 VERBS = ("use", "drag", "pull", "put", "grasp")
 MODIFIERS: tuple[str, ...] = ()
-HEADS = ("stick", "block", "zone")
+HEADS = ("stick", "block", "zone", "square")
+"""``square``: the target is a red square ("drag the cube onto the red square"); the rope's square outline is
+another scene, and this family claims only instructions that name a stick and a cube."""
+TARGETS = ("zone", "square")
 DOING = "drags the cube onto the target with the stick"
 
 
@@ -87,10 +90,10 @@ def understand(ins: Instruction, objects: list[str]) -> DragGoal | None:
         q = ins.resolve(p.index)
         if q.position or q.ordinal or (q.quantity is not None and q.quantity.value != 1):
             r.refuse(f"{p.text!r}: the scene has one stick, one cube and one target")
-        if q.colour and not (q.head == "zone" and q.colour == "red") and not (q.head == "block" and q.colour == "blue"):
+        if q.colour and not (q.head in TARGETS and q.colour == "red") and not (q.head == "block" and q.colour == "blue"):
             r.refuse(f"{p.text!r}: the scene's target is red and its cube blue")
         r.use(p.index)
-    onto = [k for k in ins.links if k.kind in ("on", "into", "to") and ins.resolve(k.b).head == "zone"]
+    onto = [k for k in ins.links if k.kind in ("on", "into", "to") and ins.resolve(k.b).head in TARGETS]
     if not onto:
         r.refuse("say where the cube goes: onto the target")
     for k in ins.links:
