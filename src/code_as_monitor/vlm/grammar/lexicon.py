@@ -243,6 +243,19 @@ NEGATIONS = {"not", "never", "without", "except", "but", "avoid", "avoiding", "i
 
 PRONOUNS: dict[str, str] = {"it": "it", "them": "them", "they": "them"}
 
+OPENABLE = frozenset({"drawer", "cabinet", "tap"})
+"""What "open" / "pull" / "turn" can take."""
+MOVABLE = frozenset({"block", "pen", "pencil", "marker", "book", "teapot", "teacup", "cup", "pot", "item", "bulb",
+                     "stick", "rope", "broom"})
+"""What the hand picks up, puts, inserts or drags (not the table, a shelf, a zone, a tower or a cabinet)."""
+OBJECT_OF: dict[str, frozenset[str]] = {
+    "open": OPENABLE, "pull": OPENABLE | MOVABLE, "turn": OPENABLE | {"bulb"},
+    **{v: MOVABLE for v in ("pick", "grasp", "hold", "put", "insert", "drop", "slide", "stand", "drag", "stow",
+                            "shelve", "screw", "pour", "tilt")},
+}
+"""Canonical verb -> the concepts it can take as its object: where a pronoun has nothing before it to stand for,
+it stands for the one thing named after it that its verb can take (:meth:`Parser.finish`)."""
+
 FILLERS: set[tuple[str, ...]] = {
     ("please",), ("kindly",), ("do",), ("just", "do"), ("now",), ("carefully",), ("gently",), ("robot",),
     ("go", "ahead", "and"),

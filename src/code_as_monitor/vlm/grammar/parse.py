@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from code_as_monitor.vlm.grammar import lexicon as lx
 from code_as_monitor.vlm.grammar.model import Instruction, Link, Listing, Measure, Phrase, Quantity
 from code_as_monitor.vlm.grammar.tokens import Token, tokenize
 
@@ -277,6 +278,15 @@ class _Parser:
                          and (q.plural == want_plural or not want_plural)]
                 objs = [q for q in cands if q.role == "object"]
                 pick = (objs or cands)[-1] if (objs or cands) else None
+                if pick is None:  # nothing before it ("put the cube in the drawer after opening it", read in the
+                    # order things happen: "open it then put the cube in the drawer"): the one thing named after it
+                    # in another part that its verb can take, or the one such thing that is a verb's object there;
+                    # none or several, and it stays unresolved
+                    fit = [q for q in ps[p.index + 1:] if not q.pronoun and q.segment != p.segment
+                           and q.plural == want_plural and q.head in lx.OBJECT_OF.get(p.verb, ())]
+                    if len({(q.head, q.colour) for q in fit}) > 1:
+                        fit = [q for q in fit if q.role == "object"]
+                    pick = fit[0] if len({(q.head, q.colour) for q in fit}) == 1 else None
                 p.ref = pick.index if pick is not None else None
         for p in reversed(ps):  # "the red, green and blue blocks": the last noun is every colour's
             nxt = ps[p.index + 1] if p.index + 1 < len(ps) else None
