@@ -208,41 +208,34 @@ def plane_candidates(P: np.ndarray, tol: float, iters: int, rng: np.random.Gener
 
 
 def _hull_moments(hull: np.ndarray) -> np.ndarray:
-    """(2, 2) second moments of area about its centroid of the convex polygon ``hull`` (K, 2), any orientation."""
-    x, y = hull[:, 0] - hull[:, 0].mean(), hull[:, 1] - hull[:, 1].mean()
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    a = x * yn - xn * y
-    area = a.sum() / 2.0
-    if abs(area) < 1e-12:
+    """(2, 2) second moments of area about its centroid, per unit area, of the convex polygon ``hull`` (K, 1, 2)
+    float32 (``cv2.convexHull``'s output); zeros for a degenerate polygon."""
+    import cv2
+
+    m = cv2.moments(hull)
+    if abs(m["m00"]) < 1e-12:
         return np.zeros((2, 2))
-    cx, cy = ((x + xn) * a).sum() / (6 * area), ((y + yn) * a).sum() / (6 * area)
-    sxx = (x * x + x * xn + xn * xn) @ a / 12.0 - area * cx * cx
-    syy = (y * y + y * yn + yn * yn) @ a / 12.0 - area * cy * cy
-    sxy = (x * yn + 2 * x * y + 2 * xn * yn + xn * y) @ a / 24.0 - area * cx * cy
-    return np.array([[sxx, sxy], [sxy, syy]]) / area
+    return np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
 
 
-def _lengthwise(xy: np.ndarray, depth: float) -> float | None:
-    """The principal angle (radians) of the outline ``xy`` (M, 2) when it shows a part's length, else ``None``.
+def _lengthwise(hull32: np.ndarray, hull: np.ndarray, depth: float) -> float | None:
+    """The principal angle (radians) of the outline whose convex hull is ``hull32`` (K, 1, 2) float32, ``hull``
+    (K, 2) the same in float64, when it shows a part's length, else ``None``.
 
-    It does when it is elongated (its convex hull's second moment of area along its principal axis at least
+    It does when it is elongated (the hull's second moment of area along its principal axis at least
     :data:`ELONGATED` times that across it) and at least ``depth`` long along that axis (``depth``: the part's span
     along the view direction; a bar standing tilted, seen from above, has an elongated outline shorter than the bar).
     """
-    import cv2
-
-    if len(xy) < 3:
-        return None
-    hull = cv2.convexHull(xy.astype(np.float32)).reshape(-1, 2).astype(np.float64)
-    evals, evecs = np.linalg.eigh(_hull_moments(hull))
+    evals, evecs = np.linalg.eigh(_hull_moments(hull32))
     if evals[1] < ELONGATED * max(float(evals[0]), 1e-12):
         return None
     major = evecs[:, 1]
     return float(np.arctan2(major[1], major[0])) if float(np.ptp(hull @ major)) >= depth else None
 
 
-def _outline_angle(xy: np.ndarray, tol: float, depth: float = 0.0) -> float:
-    """Angle (radians) of an edge direction of the bounding rectangle that frames the outline ``xy`` (M, 2).
+def _outline_angle(xy: np.ndarray, tol: float, depth: float = 0.0) -> tuple[float, bool]:
+    """Angle (radians) of an edge direction of the bounding rectangle that frames the outline ``xy`` (M, 2), and
+    whether the outline shows the part's length.
 
     The minimum-area rectangle, except on an outline that shows a part's length (:func:`_lengthwise`, with the
     part ``depth`` metres deep along the view): there, among the rectangles whose area is within the outline's
@@ -256,21 +249,21 @@ def _outline_angle(xy: np.ndarray, tol: float, depth: float = 0.0) -> float:
     import cv2
 
     if len(xy) < 3:
-        return 0.0
-    pts = xy.astype(np.float32)
-    (_, _), (w, h), ang = cv2.minAreaRect(pts)
+        return 0.0, False
+    hull32 = cv2.convexHull(xy.astype(np.float32))
+    (_, _), (w, h), ang = cv2.minAreaRect(hull32)
     theta0 = float(np.deg2rad(ang))
-    phi = _lengthwise(xy, depth)
+    hull = hull32.reshape(-1, 2).astype(np.float64)
+    phi = _lengthwise(hull32, hull, depth) if len(hull) >= 3 else None
     if phi is None:
-        return theta0
-    hull = cv2.convexHull(pts).reshape(-1, 2).astype(np.float64)
+        return theta0, False
     T = theta0 + np.deg2rad(np.arange(-OUTLINE_SPAN_DEG, OUTLINE_SPAN_DEG + OUTLINE_STEP_DEG / 2, OUTLINE_STEP_DEG))
     u = hull[:, :1] * np.cos(T) + hull[:, 1:] * np.sin(T)  # (K, M) hull along each candidate edge
     v = hull[:, 1:] * np.cos(T) - hull[:, :1] * np.sin(T)
     area = np.ptp(u, axis=0) * np.ptp(v, axis=0)
     off = np.abs((T - phi + np.pi / 4) % (np.pi / 2) - np.pi / 4)  # a rectangle's edges repeat every 90 degrees
     off[area > (w + tol) * (h + tol)] = np.inf
-    return float(T[int(np.argmin(off))]) if np.isfinite(off).any() else theta0
+    return (float(T[int(np.argmin(off))]) if np.isfinite(off).any() else theta0), True
 
 
 def _second_axis(P: np.ndarray, a1: np.ndarray, inl: np.ndarray, tol: float, rng: np.random.Generator) -> np.ndarray:
@@ -293,10 +286,8 @@ def _second_axis(P: np.ndarray, a1: np.ndarray, inl: np.ndarray, tol: float, rng
         n2, inl2 = plane_ransac(rest, tol, 48, rng, perpendicular_to=a1)
         if inl2.sum() >= max(5, MIN_SECOND_FACE * len(P)):
             a2 = n2
-    xy = np.c_[P @ e1, P @ e2]
-    depth = float(np.ptp(P @ a1))
-    if a2 is None or _lengthwise(xy, depth) is not None:
-        ang = _outline_angle(xy, tol, depth)
+    ang, lengthwise = _outline_angle(np.c_[P @ e1, P @ e2], tol, float(np.ptp(P @ a1)))
+    if a2 is None or lengthwise:
         a2 = np.cos(ang) * e1 + np.sin(ang) * e2
     a2 = a2 - (a2 @ a1) * a1
     a2 /= np.linalg.norm(a2)
