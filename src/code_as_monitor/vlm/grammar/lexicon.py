@@ -244,7 +244,7 @@ NEGATIONS = {"not", "never", "without", "except", "but", "avoid", "avoiding", "i
 PRONOUNS: dict[str, str] = {"it": "it", "them": "them", "they": "them"}
 
 OPENABLE = frozenset({"drawer", "cabinet", "tap"})
-"""What "open" / "pull" / "turn" can take."""
+"""What opens: the things "open" takes, and among those "pull" and "turn" take."""
 MOVABLE = frozenset({"block", "pen", "pencil", "marker", "book", "teapot", "teacup", "cup", "pot", "item", "bulb",
                      "stick", "rope", "broom"})
 """What the hand picks up, puts, inserts or drags (not the table, a shelf, a zone, a tower or a cabinet)."""
@@ -254,7 +254,7 @@ OBJECT_OF: dict[str, frozenset[str]] = {
                             "shelve", "screw", "pour", "tilt")},
 }
 """Canonical verb -> the concepts it can take as its object: where a pronoun has nothing before it to stand for,
-it stands for the one thing named after it that its verb can take (:meth:`Parser.finish`)."""
+it stands for the one thing named after it that its verb can take (``parse._Parser.finish``)."""
 
 FILLERS: set[tuple[str, ...]] = {
     ("please",), ("kindly",), ("do",), ("just", "do"), ("now",), ("carefully",), ("gently",), ("robot",),
