@@ -254,6 +254,10 @@ class _Parser:
             prev = self.t[i - 1] if i else None
             if v == "up" and prev is not None and prev.kind == "verb" and prev.value in _PARTICLE_VERBS:
                 return  # "pick up", "stack up"
+            if v == "up" and self.verb == "pick" and self.np is None and self.prep is None and self.last is not None \
+                    and self.phrases[self.last].verb == "pick" and self.phrases[self.last].role == "object" \
+                    and self.phrases[self.last].end == i:
+                return  # "pick the pen up", "pick it up": the particle after the object
             self.dangle()
             self.mods.append(str(v))
         elif k == "neg":
