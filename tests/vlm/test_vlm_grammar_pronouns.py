@@ -4,8 +4,8 @@
 into the drawer"), and "it" then comes before every noun: it stands for the one thing named after it that its verb
 can take (a drawer opens; a cube does not), or the one such thing that is a verb's object there. Before, such
 instructions were refused ("has no use for 'it'"). Where two things fit, it stays unresolved and is refused.
-"Pick it up" / "pick the pen up": the particle after the object is part of the verb (the pen's family refused
-"cannot honour 'up'").
+"Pick it up" / "pick the pen up" / "set it down on ...": the particle after the object is part of the verb (the
+families refused "cannot honour 'up'" / "'down'").
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ def _plan(text: str, objects: list[str], steps: int = 6) -> list:
     ("after grasping it, put the red block on the green block", "put the red block on the green block"),
     ("after picking it up, put the pen into the holder", "put the pen into the pen holder"),
     ("pick the pen up and put it in the holder", "put the pen into the pen holder"),  # the particle after its object
+    ("lift the red block and set it down on the green block", "put the red block on the green block"),
+    ("set down the green block on the red block", "put the green block on the red block"),
 ])
 def test_a_pronoun_before_every_noun_stands_for_what_its_verb_can_take(text: str, same_as: str) -> None:
     objects = infer_objects(same_as)

@@ -19,6 +19,8 @@ from code_as_monitor.vlm.grammar import lexicon as lx
 from code_as_monitor.vlm.grammar.model import Instruction, Link, Listing, Measure, Phrase, Quantity
 from code_as_monitor.vlm.grammar.tokens import Token, tokenize
 
+_OBJECT_PARTICLES = {("pick", "up"), ("put", "down")}
+"""A verb's particle that may also follow its object ("pick it up", "set the block down on the red one")."""
 _PARTICLE_VERBS = {"pick", "stack", "build", "stand", "put", "open", "pull", "close", "fill", "use", "push", "sweep"}
 
 
@@ -252,12 +254,13 @@ class _Parser:
                 self.dirs.append(str(v))
         elif k == "mod":
             prev = self.t[i - 1] if i else None
-            if v == "up" and prev is not None and prev.kind == "verb" and prev.value in _PARTICLE_VERBS:
-                return  # "pick up", "stack up"
-            if v == "up" and self.verb == "pick" and self.np is None and self.prep is None and self.last is not None \
-                    and self.phrases[self.last].verb == "pick" and self.phrases[self.last].role == "object" \
+            if prev is not None and prev.kind == "verb" and (
+                    (v == "up" and prev.value in _PARTICLE_VERBS) or (prev.value, v) in _OBJECT_PARTICLES):
+                return  # "pick up", "stack up", "set down"
+            if (self.verb, v) in _OBJECT_PARTICLES and self.np is None and self.prep is None and self.last is not None \
+                    and self.phrases[self.last].verb == self.verb and self.phrases[self.last].role == "object" \
                     and self.phrases[self.last].end == i:
-                return  # "pick the pen up", "pick it up": the particle after the object
+                return  # "pick the pen up", "set it down on ...": the particle after the object
             self.dangle()
             self.mods.append(str(v))
         elif k == "neg":
