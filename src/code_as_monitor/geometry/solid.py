@@ -208,32 +208,32 @@ def plane_candidates(P: np.ndarray, tol: float, iters: int, rng: np.random.Gener
 
 
 def _hull_moments(hull: np.ndarray) -> np.ndarray:
-    """(2, 2) second moments of area about its centroid, per unit area, of the convex polygon ``hull`` (K, 1, 2)
-    float32 (``cv2.convexHull``'s output); zeros for a degenerate polygon."""
+    """(2, 2) second moments of area about its centroid, per unit area, of the convex polygon ``hull`` (K, 2) (float32
+    values: ``cv2.convexHull``'s output); zeros for a degenerate polygon."""
     import cv2
 
-    m = cv2.moments(hull)
+    m = cv2.moments(hull.astype(np.float32))
     if abs(m["m00"]) < 1e-12:
         return np.zeros((2, 2))
     return np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
 
 
-def _lengthwise(hull32: np.ndarray, hull: np.ndarray, depth: float) -> float | None:
-    """The principal angle (radians) of the outline whose convex hull is ``hull32`` (K, 1, 2) float32, ``hull``
-    (K, 2) the same in float64, when it shows a part's length, else ``None``.
+def _lengthwise(hull: np.ndarray, depth: float) -> float | None:
+    """The principal angle (radians) of the outline whose convex hull is ``hull`` (K, 2) when it shows a part's
+    length, else ``None``.
 
     It does when it is elongated (the hull's second moment of area along its principal axis at least
     :data:`ELONGATED` times that across it) and at least ``depth`` long along that axis (``depth``: the part's span
     along the view direction; a bar standing tilted, seen from above, has an elongated outline shorter than the bar).
     """
-    evals, evecs = np.linalg.eigh(_hull_moments(hull32))
+    evals, evecs = np.linalg.eigh(_hull_moments(hull))
     if evals[1] < ELONGATED * max(float(evals[0]), 1e-12):
         return None
     major = evecs[:, 1]
     return float(np.arctan2(major[1], major[0])) if float(np.ptp(hull @ major)) >= depth else None
 
 
-def _outline_angle(xy: np.ndarray, tol: float, depth: float = 0.0) -> tuple[float, bool]:
+def _outline_angle(xy: np.ndarray, tol: float, depth: float) -> tuple[float, bool]:
     """Angle (radians) of an edge direction of the bounding rectangle that frames the outline ``xy`` (M, 2), and
     whether the outline shows the part's length.
 
@@ -254,7 +254,7 @@ def _outline_angle(xy: np.ndarray, tol: float, depth: float = 0.0) -> tuple[floa
     (_, _), (w, h), ang = cv2.minAreaRect(hull32)
     theta0 = float(np.deg2rad(ang))
     hull = hull32.reshape(-1, 2).astype(np.float64)
-    phi = _lengthwise(hull32, hull, depth) if len(hull) >= 3 else None
+    phi = _lengthwise(hull, depth) if len(hull) >= 3 else None
     if phi is None:
         return theta0, False
     T = theta0 + np.deg2rad(np.arange(-OUTLINE_SPAN_DEG, OUTLINE_SPAN_DEG + OUTLINE_STEP_DEG / 2, OUTLINE_STEP_DEG))
