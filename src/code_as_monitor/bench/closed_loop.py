@@ -61,7 +61,8 @@ class ClosedLoopConfig:
         ablation: a named ablation setting of the monitor (:mod:`code_as_monitor.agent.ablations`: ``full``,
             ``mv-off``, ``cs-off``, ``cp-off``, ``reactive-only``, ``proactive-only``).
         cameras: a named camera set (:data:`code_as_monitor.sim.cameras.CAMERA_SETS`): ``task`` the task's own views,
-            or ``front-top``, ``front``, ``shoulders``, ``rlbench`` for every task (to see what other views do).
+            or ``front-top``, ``front``, ``shoulders``, ``rlbench`` for every task (to see what other views do), or
+            the path of a camera file (``*.json``, :mod:`code_as_monitor.sim.camera_file`): the user's own views.
         robot_visual: how the cameras draw the arm: ``decimated`` (its detailed meshes with a fifth of their
             triangles, the default), ``mesh`` (the detailed meshes) or ``hull`` (its collision meshes); the same
             physics (see :func:`code_as_monitor.sim.robot.panda_urdf`).
@@ -103,7 +104,8 @@ class ClosedLoopConfig:
                 raise ConfigError(f"{name}.{f} must be a dict, got {getattr(self, f)!r}")
         ablation_fields(self.ablation)
         if not isinstance(self.cameras, str) or not self.cameras:
-            raise ConfigError(f"{name}.cameras must be the name of a camera set, got {self.cameras!r}")
+            raise ConfigError(f"{name}.cameras must be the name of a camera set or a camera file (.json), "
+                              f"got {self.cameras!r}")
         check_robot_visual(name, self.robot_visual)
 
     def monitor_config(self, time_limit_s: float | None = None) -> Any:
@@ -179,6 +181,7 @@ def run_closed_loop(
     """
     from code_as_monitor.agent.drive import drive
     from code_as_monitor.agent.monitor import build_monitor
+    from code_as_monitor.sim.camera_file import is_camera_file
     from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.sim.env import make_env
     from code_as_monitor.sim.world import WorldConfig
@@ -189,10 +192,13 @@ def run_closed_loop(
     out.frame_hooks.extend(frame_hooks or [])
     # Views are rendered when read (and before the world moves on): the oracle tracker reads poses, not
     # pixels, so its frames cost no render.
+    cameras = camera_set(cfg.cameras, cfg.width, cfg.height)
     world_cfg = WorldConfig(width=cfg.width, height=cfg.height, camera_hz=cfg.camera_hz, defer_render=True,
-                            cameras=camera_set(cfg.cameras, cfg.width, cfg.height), robot_visual=cfg.robot_visual)
+                            cameras=cameras, robot_visual=cfg.robot_visual)
     monitor = None
     summary: dict[str, Any] = {"method": "cam", "config": asdict(cfg), "task": cfg.task, "seed": cfg.seed}
+    if is_camera_file(cfg.cameras):  # the file may change later: the run says which views it had
+        summary["camera_specs"] = [asdict(c) for c in cameras or []]
     try:
         with make_env(cfg.task, seed=cfg.seed, world_config=world_cfg, **cfg.task_params) as env:
             if run_dir is not None:

@@ -87,7 +87,8 @@ class EpisodeOptions:
                                              or self.max_replans < 0):
             raise ConfigError(f"EpisodeOptions.max_replans must be None or an integer >= 0, got {self.max_replans!r}")
         if not isinstance(self.cameras, str) or not self.cameras:
-            raise ConfigError(f"EpisodeOptions.cameras must be the name of a camera set, got {self.cameras!r}")
+            raise ConfigError("EpisodeOptions.cameras must be the name of a camera set or a camera file (.json), "
+                              f"got {self.cameras!r}")
         if not isinstance(self.backend_options, dict):
             raise ConfigError(f"EpisodeOptions.backend_options must be a dict, got {self.backend_options!r}")
 

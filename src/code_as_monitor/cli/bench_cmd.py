@@ -69,9 +69,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--segmenter", default="sim", help="CaM segmenter (default sim)")
     p.add_argument("--cameras", default="task",
                    help="the camera set every method sees: task (each task's own views, default), front-top (the "
-                        "paper's CLIPort views), front, shoulders, rlbench; recorded in every result. The baselines "
-                        "ask each question on the set's view most like the one they want (steepest for top-down "
-                        "questions, most level for the others)")
+                        "paper's CLIPort views), front, shoulders, rlbench, or FILE.json (your own views: see "
+                        "`cam run --help`); recorded in every result. The baselines ask each question on the set's "
+                        "view most like the one they want (steepest for top-down questions, most level for the "
+                        "others)")
     p.add_argument("--robot-visual", default="decimated",
                    help="how the cameras draw the arm (the same physics): decimated (its detailed meshes with a "
                         "fifth of their triangles, default: under 1%% of the arm's pixels change, about 40%% less "

@@ -48,7 +48,9 @@ def add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--cameras", default="task",
                    help="camera set: task (the task's own views, default), front-top (the paper's CLIPort views), "
                         "front (the front view alone), shoulders (two views over the robot's shoulders), rlbench "
-                        "(front, both shoulders, wrist)")
+                        "(front, both shoulders, wrist), or FILE.json: your own views (a list of {name, eye, "
+                        "target[, fov_y_deg, up, mount, width, height]}, world frame, metres; see "
+                        "code_as_monitor.sim.camera_file)")
     p.add_argument("--robot-visual", default="decimated",
                    help="how the cameras draw the arm (the same physics): decimated (its detailed meshes with a "
                         "fifth of their triangles, default: under 1%% of the arm's pixels change, about 40%% less "

@@ -138,9 +138,15 @@ RLBench's four for the RLBench-style tasks), else one set for every task."""
 
 def camera_set(name: str, width: int, height: int) -> list[CameraSpec] | None:
     """The cameras of set ``name`` (:data:`CAMERA_SETS`) at ``width`` x ``height``; None for ``task`` (the task's own).
-    ConfigError names an unknown set."""
+    A name ending in ``.json`` is a camera file of the user's own views (:mod:`.camera_file`; ``width`` x ``height``
+    for the cameras that give no size). ConfigError names an unknown set or a bad file."""
+    from code_as_monitor.sim.camera_file import is_camera_file, load_camera_file
+
+    if is_camera_file(name):
+        return load_camera_file(name, width, height)
     if name not in CAMERA_SETS:
-        raise ConfigError(f"unknown camera set {name!r}; choose one of: {', '.join(CAMERA_SETS)}")
+        raise ConfigError(f"unknown camera set {name!r}; choose one of: {', '.join(CAMERA_SETS)}, "
+                          f"or a camera file (.json)")
     make = CAMERA_SETS[name]
     return None if make is None else make(width, height)
 
