@@ -171,6 +171,7 @@ TABLE: list[tuple[str, str, Any]] = [
     ("pen", "put the pen into the bookshelf", REFUSE),
     # --- stow-book --------------------------------------------------------------------------------------
     ("book", "shelve the book", FIXED["book"]),
+    ("pen", "turn the pen upright", REFUSE),
     ("book", "put the book upright into the bookcase", FIXED["book"]),
     ("book", "stow the book on the shelf", FIXED["book"]),
     ("book", "stand the book up in the bookshelf", FIXED["book"]),

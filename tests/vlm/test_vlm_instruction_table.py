@@ -241,6 +241,17 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     ("stack", "stack red and green, red at the bottom", tower("red", "green")),  # before: "contradictory"
     ("stack", "put the blue block on top of the green block, which sits on the red block",  # before: "which"
      tower("red", "green", "blue")),
+    # ways of asking: a wish, a task statement, "let's" (read as "let is" before)
+    ("stack", "I'd like the red block on top of the green one", tower("green", "red")),
+    ("stack", "I would like the blue block on the red block", tower("red", "blue")),
+    ("stack", "let's stack green on red", tower("red", "green")),
+    ("stack", "your task is to stack the blue block on the green block", tower("green", "blue")),
+    ("drawer", "the goal is to open the drawer", FIXED["drawer"]),
+    ("tea", "your job is to pour the tea from the teapot into the teacup", FIXED["tea"]),
+    # turning the pen or book upright is the reorientation step of its plan (before: "cannot 'turn' here")
+    ("book", "pick up the book, turn it upright and put it in the bookshelf", FIXED["book"]),
+    ("pen", "pick up the pen, turn it upright and put it into the holder", FIXED["pen"]),
+    ("pen", "rotate the pen upright and insert it into the holder", FIXED["pen"]),
 ])
 def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
     verdict, detail = judge(instruction, SCENES[scene], want)

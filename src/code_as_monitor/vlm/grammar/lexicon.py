@@ -261,6 +261,8 @@ FILLERS: set[tuple[str, ...]] = {
     ("go", "ahead", "and"),
     ("can", "you"), ("could", "you"), ("would", "you"), ("will", "you"), ("you",), ("i", "want", "you", "to"),
     ("i", "would", "like", "you", "to"), ("i", "need", "you", "to"), ("i", "want"), ("i", "need"),
+    ("i", "would", "like", "to"), ("i", "would", "like"), ("your", "task", "is", "to"), ("the", "goal", "is", "to"),
+    ("your", "goal", "is", "to"), ("the", "job", "is", "to"), ("your", "job", "is", "to"),
     ("we", "need"), ("so", "that"), ("such", "that"), ("so",), ("is",), ("are",), ("be",), ("ends", "up"),
     ("end", "up"), ("sits",), ("sit",), ("goes",), ("go",), ("rests",), ("rest",), ("lies",), ("should",),
     ("must",), ("need", "to"), ("needs", "to"), ("try", "to"), ("want",), ("task",), ("your",), ("the", "task",

@@ -35,7 +35,7 @@ _CONTRACTIONS = (("n't", " not"), ("'s", " is"), ("'re", " are"), ("'ll", " will
 def normalise(text: str) -> list[str]:
     """Lower-cased words and punctuation marks."""
     s = text.lower().replace("\u2019", "'").replace("\u2018", "'")
-    s = s.replace("can't", "can not").replace("won't", "will not")
+    s = s.replace("can't", "can not").replace("won't", "will not").replace("let's", "let us")
     for a, b in _CONTRACTIONS:
         s = s.replace(a, b)
     s = re.sub(r"(\d)\s*-\s*(\d)", r"\1 to \2", s)  # "6-10 blocks"

@@ -102,7 +102,7 @@ class BookGoal:
     target: str
 
 
-VERBS = ("put", "stow", "shelve", "insert", "stand", "slide", "pick", "grasp")
+VERBS = ("put", "stow", "shelve", "insert", "stand", "slide", "pick", "grasp", "turn")
 MODIFIERS = ("upright", "up", "in")
 HEADS = ("book", "shelf", "slot")
 DOING = "stows the book upright in the bookshelf's slot"

@@ -79,7 +79,7 @@ class PenGoal:
     target: str
 
 
-VERBS = ("put", "insert", "drop", "stand", "pick", "grasp", "stow", "slide")
+VERBS = ("put", "insert", "drop", "stand", "pick", "grasp", "stow", "slide", "turn")
 MODIFIERS = ("tip_down", "upright", "down", "in")
 HEADS = ("pen", "holder", "pencil", "marker")
 DOING = "puts the pen into the pen holder, tip first"
