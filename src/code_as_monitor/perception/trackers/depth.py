@@ -164,7 +164,9 @@ class DepthTracker(Tracker):
             before = body.T.copy()
             alone = body.parent is not None and body.parent not in moves and not related  # its object lost
             body.on_parent = False
-            track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone)
+            leaf = not any(b.parent == owner for b in self._bodies.values())
+            track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone,
+                       carried_first=leaf)
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
         resolve_overlaps(c, list(self._bodies.values()))  # first: a part slid onto another object is lost

@@ -98,6 +98,9 @@ def keep_on_object(c: DepthTrackerConfig, part: BodyState, parent: BodyState, vi
     if not part.lost and (part.held or denied) and own_evidence(c, part, parent, views) >= c.min_seen:
         part.rel = invert(parent.T) @ part.T  # it moved on its own
         return
+    if not part.lost and part.held and own is not None and own.contradicted <= sup.contradicted:
+        part.rel = invert(parent.T) @ part.T  # the grip moved it, and the frame denies it there no more
+        return
     if denied:
         part.apart = not part.lost
         return  # the frame denies it where the object carries it: the part's own result stands
