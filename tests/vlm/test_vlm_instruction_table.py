@@ -252,6 +252,9 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     ("book", "pick up the book, turn it upright and put it in the bookshelf", FIXED["book"]),
     ("pen", "pick up the pen, turn it upright and put it into the holder", FIXED["pen"]),
     ("pen", "rotate the pen upright and insert it into the holder", FIXED["pen"]),
+    # the clause after a colon says how the one before it is done, with the same verb (before: "pour twice")
+    ("tea", "serve tea: pour from the teapot into the teacup", FIXED["tea"]),
+    ("drawer", "open the drawer: open it by pulling its handle", FIXED["drawer"]),
 ])
 def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
     verdict, detail = judge(instruction, SCENES[scene], want)

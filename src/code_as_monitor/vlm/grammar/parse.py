@@ -68,6 +68,7 @@ class _Parser:
         self.pos = ""  # a position waiting for the next phrase
         self.np: _NP | None = None
         self.seps: dict[int, list[str]] = {}  # separators before the phrase with this index
+        self.colon_verb = ""  # the verb before a ":" not yet followed by another verb
 
     # --- phrases -------------------------------------------------------------------------------------------
     def close(self, end: int) -> None:
@@ -224,12 +225,16 @@ class _Parser:
             self.segment += 1
             self.last = None
             self.seps.setdefault(len(self.phrases), []).append(str(v))
+            if str(v) == ":":
+                self.colon_verb = self.verb
         elif k == "verb":
             if self.prep is not None and self.prep[0] in ("by", "to", "with"):
                 self.prep = None  # "by pulling", "to close", "with ... to"
             self.dangle()
-            self.verb = str(v)
-            self.verbs.append(self.verb)
+            again = str(v) == self.colon_verb  # "serve tea: pour it from the pot into the cup" says how, once
+            self.verb, self.colon_verb = str(v), ""
+            if not again:
+                self.verbs.append(self.verb)
         elif k == "prep":
             self.dangle()
             if nxt is not None and nxt.kind == "verb" and v in ("by", "to", "with"):
