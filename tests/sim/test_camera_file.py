@@ -90,3 +90,16 @@ def test_the_cli_says_what_is_wrong_with_a_file_in_one_line_and_exits_2(tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown field(s) 'fov'" in err[0]
     assert not (tmp_path / "runs").exists()
+
+
+def test_cam_sim_renders_a_video_from_the_files_views(tmp_path):
+    """``cam sim --cameras FILE --video`` is how a user looks at a camera file before running the monitor on it."""
+    import imageio.v3 as iio
+
+    from code_as_monitor.cli.main import main
+
+    p = _write(tmp_path, [dict(VIEWS[0], width=160, height=120), dict(VIEWS[1], width=160, height=120)])
+    out = tmp_path / "views.mp4"
+    assert main(["sim", "stack-in-order", "--cameras", str(p), "--video", str(out), "--set", "time_limit=2"]) == 0
+    frame = iio.imread(out, index=0)
+    assert frame.shape[1] >= 2 * 150  # both views, side by side

@@ -1,6 +1,7 @@
 """``cam sim``: run one open-loop simulator episode, or list the tasks.
 
     cam sim stack-in-order --seed 3 --p 0.3 --video out.mp4     # writes out.mp4 + out.events.jsonl
+    cam sim turn-tap --cameras my_views.json --video views.mp4  # what your own cameras see
     cam sim sweep-half --set zone_half=0.1 --events ev.jsonl
     cam sim --list
 """
@@ -25,7 +26,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--q", type=v.non_negative, default=None, help="placement noise bound, cm (stack-in-order)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any task config field (VALUE parsed as JSON, else a string); repeatable")
-    p.add_argument("--video", type=v.new_file, default=None, help="write an mp4 of the front+top views here")
+    p.add_argument("--video", type=v.new_file, default=None, help="write an mp4 of the views here (tiled)")
+    p.add_argument("--cameras", default="task",
+                   help="the views of the video: task (the task's own, default), front-top, front, shoulders, "
+                        "rlbench, or FILE.json (your own views, as `cam run --cameras`: check a camera file here)")
     p.add_argument("--events", type=v.new_file, default=None,
                    help="ground-truth event log (JSONL); default: next to --video as <stem>.events.jsonl")
     p.add_argument("--renderer", choices=("tiny", "egl"), default="tiny", help="renderer (default tiny)")
@@ -57,7 +61,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.task:
         raise ConfigError("cam sim: give a task id (see `cam sim --list`)")
+    import dataclasses
+
     import code_as_monitor.sim.tasks  # noqa: F401  (registers the tasks)
+    from code_as_monitor.sim.cameras import camera_set
     from code_as_monitor.sim.episode import run_open_loop
     from code_as_monitor.sim.tasks.base import TaskConfig
     from code_as_monitor.sim.world import WorldConfig
@@ -76,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     if events is not None and args.video is not None and events.absolute() == args.video.absolute():
         raise ConfigError(f"--events and --video are the same file {events}")
     wc = WorldConfig(renderer=args.renderer, camera_hz=args.camera_hz)
+    wc = dataclasses.replace(wc, cameras=camera_set(args.cameras, wc.width, wc.height))
     res = run_open_loop(args.task, seed=args.seed, world_config=wc, video=args.video, events_path=events, **cfg)
     if args.json:
         print(json.dumps(res.to_dict()))
