@@ -11,11 +11,11 @@ element by the remembered one when all of these hold:
 1. the robot is involved: the fresh element's box is hidden by the robot over at least :data:`ROBOT_INVOLVED` of its
    pixels and the fresh element is weak (:meth:`~code_as_monitor.core.elements.ElementSupport.weak`), or the robot,
    or the object it holds, hides at least :data:`~code_as_monitor.core.elements.ROBOT_HIDDEN_WEAK` of the remembered
-   cloud's projections (not counting those on the part itself) and either no view sees the part or the part's
-   object is held. A held object turns with the robot and may hide its own part: a book turned upright in the
-   gripper with its spine away from the cameras shows only the spine's 1 x 2.4 cm end, whose longest axis reads
-   as a line across the book; its spine, remembered and turned with it, is behind the cover (the painter counts a
-   held object's pixels as the robot's);
+   cloud's projections (not counting those on the part itself) and either no view sees the part (the element is
+   missing, or its whole object stands in for it: :func:`stands_in`) or the part's object is held. A held object
+   turns with the robot and may hide its own part: a book turned upright in the gripper with its spine away from the
+   cameras shows only the spine's 1 x 2.4 cm end, whose longest axis reads as a line across the book; its spine,
+   remembered and turned with it, is behind the cover (the painter counts a held object's pixels as the robot's);
 2. the remembered estimate rests on more evidence (:func:`evidence`): its points not hidden by the robot
    (``points x (1 - robot_hidden)``), capped, when a tracker moved it since it was measured, by the fewest
    observations the tracker reported its position resting on in any frame since
@@ -166,10 +166,16 @@ class CarryDecision:
         return {"id": self.id, "name": self.name, "carried": self.carried, "reason": self.reason, **self.figures}
 
 
+def stands_in(fresh: Element | None) -> bool:
+    """Whether ``fresh`` is a part's element painted from its whole object (no view showed the part:
+    ``support.part_seen`` False): no view sees the part, as when it is missing (condition 1)."""
+    return fresh is not None and bool(fresh.owner[1]) and fresh.support is not None and not fresh.support.part_seen
+
+
 def candidate(fresh: Element | None) -> bool:
     """Whether a carry-over may be tried for ``fresh`` (condition 1 of the module docstring, for a painted one;
-    a missing one is decided on the remembered cloud)."""
-    if fresh is None:
+    a missing one, or a part's whole object standing in for it, is decided on the remembered cloud)."""
+    if fresh is None or stands_in(fresh):
         return True
     sup = fresh.support
     return sup is not None and sup.robot_hidden >= ROBOT_INVOLVED and sup.weak()
@@ -180,9 +186,10 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     """The element to use for ``spec`` (id ``eid``) and the decision, given the contradiction figures of the
     remembered estimate ``known`` (:func:`~code_as_monitor.geometry.occlusion.contradiction`) and the fraction of
     its cloud the robot (or what it holds) hides now, not counting the part seen now (condition 1)."""
+    # a whole object standing in for its part is no evidence of where the part is (condition 2)
+    fresh_support = None if fresh is None or stands_in(fresh) else fresh.support
     fig = {"from_t": round(known.t, 3), "seen_through": round(seen_through, 3), "outside": round(outside, 3),
-           "evidence_known": round(evidence(known.support), 1),
-           "evidence_fresh": round(evidence(None if fresh is None else fresh.support), 1)}
+           "evidence_known": round(evidence(known.support), 1), "evidence_fresh": round(evidence(fresh_support), 1)}
     if known.support is not None and math.isfinite(known.support.tracked):
         fig["tracked_known"] = round(known.support.tracked, 1)  # the tracker's weakest frame capped it
     if fresh is not None and fresh.support is not None:
@@ -194,7 +201,7 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     def keep(reason: str) -> tuple[Element | None, CarryDecision]:
         return fresh, CarryDecision(eid, spec.name, False, reason, fig)
 
-    if fresh is None and robot_hidden_known < ROBOT_HIDDEN_WEAK:
+    if (fresh is None or stands_in(fresh)) and robot_hidden_known < ROBOT_HIDDEN_WEAK:
         return keep("no view sees it and the robot does not hide where it was")
     if fresh is not None and not hidden_fresh and robot_hidden_known < ROBOT_HIDDEN_WEAK:
         return keep("the robot hides neither the fresh element nor, with what it holds, where the part was")
@@ -202,7 +209,7 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
         return keep("the remembered estimate has another shape")
     if not np.all(np.isfinite(known.points)):
         return keep("the remembered estimate is not finite")
-    if evidence(known.support) <= evidence(None if fresh is None else fresh.support):
+    if evidence(known.support) <= evidence(fresh_support):
         if known.support is not None and known.support.tracked < evidence(replace(known.support, tracked=math.inf)):
             return keep("the remembered estimate rests on no more than the fresh one: its tracker's weakest frame "
                         f"since it was measured had {known.support.tracked:.0f} observations")
@@ -239,4 +246,4 @@ def carry_over(built: dict[int, Element | None], specs: Mapping[int, ElementSpec
 
 __all__ = ["MAX_OUTSIDE", "MAX_SEEN_THROUGH", "ROBOT_INVOLVED", "CarryDecision", "KnownElement", "candidate",
            "carry_over", "decide", "evidence", "key_of", "known_from", "object_rotations",
-           "rotation_between"]
+           "rotation_between", "stands_in"]

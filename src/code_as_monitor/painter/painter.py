@@ -23,7 +23,15 @@ from code_as_monitor.core.errors import CamError, ConfigError, PerceptionError
 from code_as_monitor.core.observation import Observation
 from code_as_monitor.geometry.occlusion import any_point_near, ball_pixel_box
 from code_as_monitor.geometry.stats import percentile
-from code_as_monitor.painter.carry_over import CarryDecision, Key, KnownElement, candidate, carry_over, key_of
+from code_as_monitor.painter.carry_over import (
+    CarryDecision,
+    Key,
+    KnownElement,
+    candidate,
+    carry_over,
+    key_of,
+    stands_in,
+)
 from code_as_monitor.painter.draw import draw_elements
 from code_as_monitor.painter.point_elements import SplitPoint, split_into_points
 from code_as_monitor.painter.sources import ORB_KEYPOINTS, PART_MASKS, check_element_source
@@ -314,7 +322,8 @@ class Painter:
                      for (v, _, res), r in zip(per_view, robots)]
             cloud = k.cloud if k.cloud is not None and len(k.cloud) else k.points
             fresh = built.get(eid)
-            visible = fresh.cloud if fresh is not None and fresh.cloud is not None else np.empty((0, 3))
+            visible = (fresh.cloud if fresh is not None and fresh.cloud is not None and not stands_in(fresh)
+                       else np.empty((0, 3)))  # a whole object standing in shows none of the part's points
             seen, outside = contradiction(cloud, k.points.mean(axis=0), visible, views)
             part = [OccluderView(v.depth, v.camera, r, np.asarray(res[j].part_mask if cands[eid].part
                                                                  else res[j].instance_mask, dtype=bool))
