@@ -10,7 +10,7 @@ import pytest
 from code_as_monitor.bench.closed_loop import ClosedLoopConfig, check_choices, run_closed_loop
 from code_as_monitor.core.errors import ConfigError
 from code_as_monitor.sim.camera_file import load_camera_file
-from code_as_monitor.sim.cameras import camera_set
+from code_as_monitor.sim.cameras import CameraSpec, camera_set
 
 VIEWS = [
     {"name": "left_low", "eye": [0.55, 0.75, 0.40], "target": [0.5, 0.0, 0.05], "fov_y_deg": 55},
@@ -30,7 +30,8 @@ def test_a_file_gives_its_cameras_with_the_default_size_where_none_is_given(tmp_
     assert (specs[0].width, specs[0].height, specs[0].fov_y_deg) == (320, 240, 55.0)
     assert (specs[1].width, specs[1].height, specs[1].fov_y_deg) == (200, 150, 50.0)
     assert specs[0].eye == (0.55, 0.75, 0.40) and specs[0].mount == "world"
-    assert [s.name for s in load_camera_file(_write(tmp_path, VIEWS, "list.json"), 64, 48)] == ["left_low", "top"]
+    listed = load_camera_file(_write(tmp_path, VIEWS, "list.json"), 64, 48, CameraSpec)
+    assert [s.name for s in listed] == ["left_low", "top"]
 
 
 @pytest.mark.parametrize("cams, needle", [

@@ -41,12 +41,11 @@ def is_camera_file(name: str) -> bool:
     return name.lower().endswith(SUFFIX)
 
 
-def load_camera_file(path: str | Path, width: int, height: int) -> list[Any]:
-    """The :class:`~code_as_monitor.sim.cameras.CameraSpec` list of camera file ``path`` (module docstring);
-    ``width`` x ``height`` for the cameras that give no size. ConfigError names a missing or unreadable file,
-    bad JSON, an unknown or missing field, a bad value or a repeated name."""
-    from code_as_monitor.sim.cameras import CameraSpec
-
+def load_camera_file(path: str | Path, width: int, height: int, spec: type) -> list[Any]:
+    """The camera specs (``spec``: :class:`~code_as_monitor.sim.cameras.CameraSpec`, the dataclass each camera
+    becomes) of camera file ``path`` (module docstring); ``width`` x ``height`` for the cameras that give no size.
+    ConfigError names a missing or unreadable file, bad JSON, an unknown or missing field, a bad value or a repeated
+    name."""
     p = Path(path)
     try:
         data = json.loads(p.read_text())
@@ -60,7 +59,7 @@ def load_camera_file(path: str | Path, width: int, height: int) -> list[Any]:
     if not isinstance(cams, list) or not cams:
         raise ConfigError(f"camera file {str(p)!r} must hold a non-empty list of cameras (or {{\"cameras\": [...]}}), "
                           f"got {type(cams).__name__}")
-    known = {f.name for f in fields(CameraSpec)}
+    known = {f.name for f in fields(spec)}
     specs, names = [], set()
     for i, cam in enumerate(cams):
         where = f"camera file {str(p)!r}, camera {i}"
@@ -85,7 +84,7 @@ def load_camera_file(path: str | Path, width: int, height: int) -> list[Any]:
         if "eye" in kw and kw["eye"] == kw["target"]:
             raise ConfigError(f"{where} ({name!r}): eye and target are the same point {kw['eye']}")
         try:
-            specs.append(CameraSpec(name, **kw))
+            specs.append(spec(name, **kw))
         except ConfigError as e:
             raise ConfigError(f"{where}: {e}") from None
     return specs

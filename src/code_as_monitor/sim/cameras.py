@@ -143,7 +143,7 @@ def camera_set(name: str, width: int, height: int) -> list[CameraSpec] | None:
     from code_as_monitor.sim.camera_file import is_camera_file, load_camera_file
 
     if is_camera_file(name):
-        return load_camera_file(name, width, height)
+        return load_camera_file(name, width, height, CameraSpec)
     if name not in CAMERA_SETS:
         raise ConfigError(f"unknown camera set {name!r}; choose one of: {', '.join(CAMERA_SETS)}, "
                           f"or a camera file (.json)")
