@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sim_tracking import tracked_frames
 
 pytest.importorskip("pybullet")
 
@@ -44,13 +45,7 @@ def _track_pull(seed: int) -> list[dict]:
         tracker.reset(obs, els)
         frames = []
         for action in plan[1:]:
-            env.policy.start(action)
-            while not env.policy.done:
-                env.policy.step()
-                if not world.frame_due():
-                    continue
-                obs = world.observe()
-                res = tracker.step(obs)
+            for obs, res in tracked_frames(env, action, tracker):
                 for i, part in enumerate(PARTS):
                     T = obs.object_poses[f"drawer_cabinet/{part}"]
                     truth = local[i] @ T[:3, :3].T + T[:3, 3]

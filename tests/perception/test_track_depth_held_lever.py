@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sim_tracking import tracked_frames
 
 pytest.importorskip("pybullet")
 
@@ -49,13 +50,7 @@ def _turn_errors(seed: int) -> list[tuple[float, float, bool]]:
         tracker.reset(obs, [el])
         h0, a0 = _heading(el.points), np.degrees(task.opened(world, task.part))
         out = []
-        env.policy.start(plan[1])  # the turn
-        while not env.policy.done:
-            env.policy.step()
-            if not world.frame_due():
-                continue
-            obs = world.observe()
-            res = tracker.step(obs)
+        for obs, res in tracked_frames(env, plan[1], tracker):  # the turn
             turned_true = np.degrees(task.opened(world, task.part)) - a0
             turned = abs((_heading(res.points[0]) - h0 + 180.0) % 360.0 - 180.0)
             out.append((obs.t, abs(turned - turned_true), bool(res.stale[0].any())))

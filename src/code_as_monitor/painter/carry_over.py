@@ -186,8 +186,8 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     """The element to use for ``spec`` (id ``eid``) and the decision, given the contradiction figures of the
     remembered estimate ``known`` (:func:`~code_as_monitor.geometry.occlusion.contradiction`) and the fraction of
     its cloud the robot (or what it holds) hides now, not counting the part seen now (condition 1)."""
-    # a whole object standing in for its part is no evidence of where the part is (condition 2)
-    fresh_support = None if fresh is None or stands_in(fresh) else fresh.support
+    unseen = fresh is None or stands_in(fresh)  # no view sees the part (condition 1)
+    fresh_support = None if unseen else fresh.support  # a stand-in is no evidence of where the part is (2)
     fig = {"from_t": round(known.t, 3), "seen_through": round(seen_through, 3), "outside": round(outside, 3),
            "evidence_known": round(evidence(known.support), 1), "evidence_fresh": round(evidence(fresh_support), 1)}
     if known.support is not None and math.isfinite(known.support.tracked):
@@ -201,7 +201,7 @@ def decide(eid: int, spec: ElementSpec, fresh: Element | None, known: KnownEleme
     def keep(reason: str) -> tuple[Element | None, CarryDecision]:
         return fresh, CarryDecision(eid, spec.name, False, reason, fig)
 
-    if (fresh is None or stands_in(fresh)) and robot_hidden_known < ROBOT_HIDDEN_WEAK:
+    if unseen and robot_hidden_known < ROBOT_HIDDEN_WEAK:
         return keep("no view sees it and the robot does not hide where it was")
     if fresh is not None and not hidden_fresh and robot_hidden_known < ROBOT_HIDDEN_WEAK:
         return keep("the robot hides neither the fresh element nor, with what it holds, where the part was")

@@ -81,7 +81,7 @@ def load_camera_file(path: str | Path, width: int, height: int, spec: type) -> l
         kw = {k: _value(f"{where} ({name!r})", k, v) for k, v in cam.items() if k != "name"}
         kw.setdefault("width", width)
         kw.setdefault("height", height)
-        if "eye" in kw and kw["eye"] == kw["target"]:
+        if kw["eye"] == kw["target"]:
             raise ConfigError(f"{where} ({name!r}): eye and target are the same point {kw['eye']}")
         try:
             specs.append(spec(name, **kw))

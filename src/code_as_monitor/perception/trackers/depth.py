@@ -150,9 +150,10 @@ class DepthTracker(Tracker):
         tool = _tool(obs, ee, tip, c.tool_radius, c.tool_margin) if ee is not None and c.tool_radius > 0 else None
         dt = obs.t - self._t if self._t is not None else 0.0
         moves: dict[Owner, np.ndarray] = {}  # body -> this frame's rigid motion (for its parts)
+        parents = {b.parent for b in self._bodies.values()}  # the bodies that carry parts of their own
         for owner in self._ordered_bodies():
             body = self._bodies[owner]
-            if not body.elements and not any(b.parent == owner for b in self._bodies.values()):
+            if not body.elements and owner not in parents:
                 continue  # a whole object created for parts that are all followed by detection
             if not body.elements and body.lost and body.lost_frames > c.reacquire_after:
                 continue  # a whole object only its parts use, lost for good (a rope that bent): parts go alone
@@ -164,9 +165,8 @@ class DepthTracker(Tracker):
             before = body.T.copy()
             alone = body.parent is not None and body.parent not in moves and not related  # its object lost
             body.on_parent = False
-            leaf = not any(b.parent == owner for b in self._bodies.values())
             track_body(c, body, views, self._plane, dT_ee if (on and body.held) else None, related, dt, tool, alone,
-                       carried_first=leaf)
+                       carried_first=owner not in parents)
             if not body.lost:
                 moves[owner] = body.T @ invert(before)
         resolve_overlaps(c, list(self._bodies.values()))  # first: a part slid onto another object is lost

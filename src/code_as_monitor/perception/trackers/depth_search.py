@@ -66,7 +66,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
         tool: see :func:`.depth_views.crop_scene`.
         alone: a part whose object is lost this frame (and no other part of it moved it): a ``small`` body
             is then only accepted unmoved, never searched for (alone, its few points fit other surfaces).
-        carried_first: a held body with no parts of its own followed (see :func:`search`'s ``carried_first``).
+        carried_first: a body with no parts of its own followed: held, it is carried first (see :func:`search`).
     """
     if body.model is None:
         return
@@ -84,8 +84,7 @@ def track_body(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], pl
                            None if body.model.in_plane else plane, c.plane_band, tool)
         if len(scene) >= c.min_points:
             found = search(c, body, views, scene, guesses, None if body.model.in_plane else plane,
-                           climb=settling and not body.lost, held=dT_ee is not None,
-                           carried_first=carried_first and dT_ee is not None)
+                           climb=settling and not body.lost, held=dT_ee is not None, carried_first=carried_first)
     if found is None:
         body.lost = True
         body.lost_frames += 1
@@ -173,13 +172,13 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
     surface are only occluded to the cameras. ``need``: the fewest model points a result must see (default:
     ``min_seen``, and ``min_seen_frac`` of those seen at paint time).
 
-    ``carried_first``: a held body that carries no parts of its own (a block, a pen, a tap's lever; not a cabinet
-    held by its handle, whose whole does not follow the grip) stays where the grip carried it (the first guess),
-    unregistered, while that pose passes (``need`` seen, at most ``max_contradiction``) and the frame contradicts it
-    no more than the last good pose. The hand that holds it hides most of it: a tap's lever turned from a view
-    that looks down past the gripper showed 53-59 of its 390 points at every angle within 15 degrees, where
-    registration turned it back 3-15 degrees a frame toward the closed lever and its pose trailed the grip by 38
-    degrees at the end of the turn (a false "slipped out of the gripper"). A slip shows through the carried pose."""
+    ``carried_first`` (with ``held``): a held body that carries no parts of its own (a block, a pen, a tap's lever;
+    not a cabinet held by its handle, whose whole does not follow the grip) stays where the grip carried it (the
+    first guess), unregistered, while that pose passes (``need`` seen, at most ``max_contradiction``) and the frame
+    contradicts it no more than the last good pose. The hand that holds it hides most of it: a tap's lever turned
+    from a view that looks down past the gripper showed 53-59 of its 390 points at every angle within 15 degrees,
+    where registration turned it back 3-15 degrees a frame toward the closed lever and its pose trailed the grip by
+    38 degrees at the end of the turn (a false "slipped out of the gripper"). A slip shows through the carried pose."""
     import small_gicp
 
     model = body.model
@@ -209,7 +208,7 @@ def search(c: DepthTrackerConfig, body: BodyState, views: list[ViewData], scene:
         last = start[tier + 1] if rounds is fine or tier else min(start[tier + 1], start[tier] + 2)
         for i in range(start[tier], last):  # coarse rounds: from the two likeliest guesses only
             T0 = guesses[i]
-            if carried_first and i == 0:  # carried by the grip: kept there unless the frame sees through it
+            if held and carried_first and i == 0:  # carried by the grip: kept unless the frame sees through it
                 at_guess[0] = g = pose_support(c, model, T0, views)
                 if g.seen >= need and g.contradiction <= c.max_contradiction and _no_more_contradicted(body, g) \
                         and not _sinks(c, model, T0, plane):
