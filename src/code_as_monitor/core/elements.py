@@ -114,6 +114,10 @@ class ElementSupport:
             its assumed sides, or sides that may go on behind a sibling part's surface
             (:attr:`code_as_monitor.geometry.solid.Box.uncertainty`); 0 when a view bounds every side (then only
             the depth noise and the fit, ``residual``, limit it). It does not make the element weak.
+        direction_seen: False for a line whose points do not show its part long along it
+            (:func:`~code_as_monitor.geometry.elements.seen_lengthwise`): the views show a stub of the part (a book's
+            spine seen by its top end above the shelf), and its longest axis, the line's direction, is whichever way
+            the stub's outline and the depth noise make longest. Such a line is weak.
     """
 
     points: int
@@ -127,6 +131,7 @@ class ElementSupport:
     carried: bool = False
     tracked: float = math.inf
     uncertainty: float = 0.0
+    direction_seen: bool = True
 
     def to_dict(self) -> dict:
         d = {"points": self.points, "views": self.views, "residual": round(self.residual, 5),
@@ -135,6 +140,8 @@ class ElementSupport:
              "carried": self.carried, "uncertainty": round(self.uncertainty, 4)}
         if math.isfinite(self.tracked):  # JSON has no infinity: absent means a measurement
             d["tracked"] = round(float(self.tracked), 3)
+        if not self.direction_seen:  # absent: seen (points, surfaces, elongated lines)
+            d["direction_seen"] = False
         return d
 
     @classmethod
@@ -143,16 +150,18 @@ class ElementSupport:
         return cls(int(d["points"]), int(d["views"]), float(d["residual"]), float(d.get("spread", 0.0)),
                    (ext[0], ext[1], ext[2]), int(d.get("assumed", 0)), bool(d.get("part_seen", True)),
                    float(d.get("robot_hidden", 0.0)), bool(d.get("carried", False)),
-                   float(d.get("tracked", math.inf)), float(d.get("uncertainty", 0.0)))
+                   float(d.get("tracked", math.inf)), float(d.get("uncertainty", 0.0)),
+                   bool(d.get("direction_seen", True)))
 
     def weak(self, min_points: int = 20, min_views: int = 1, max_residual: float = 0.004,
              max_robot_hidden: float | None = None) -> bool:
         """True when fewer than ``min_points`` points or ``min_views`` views supported the element, its fit
-        residual exceeds ``max_residual`` metres, a side of its box was assumed, its part was not seen, or the robot
-        hid more than ``max_robot_hidden`` (default :data:`ROBOT_HIDDEN_WEAK`) of it."""
+        residual exceeds ``max_residual`` metres, a side of its box was assumed, its part was not seen, the robot
+        hid more than ``max_robot_hidden`` (default :data:`ROBOT_HIDDEN_WEAK`) of it, or it is a line whose direction
+        the views leave open (``direction_seen`` False)."""
         limit = ROBOT_HIDDEN_WEAK if max_robot_hidden is None else max_robot_hidden
         return (self.points < min_points or self.views < min_views or self.residual > max_residual
-                or self.assumed > 0 or not self.part_seen or self.robot_hidden > limit)
+                or self.assumed > 0 or not self.part_seen or self.robot_hidden > limit or not self.direction_seen)
 
 
 @dataclass
