@@ -255,6 +255,15 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     # the clause after a colon says how the one before it is done, with the same verb (before: "pour twice")
     ("tea", "serve tea: pour from the teapot into the teacup", FIXED["tea"]),
     ("drawer", "open the drawer: open it by pulling its handle", FIXED["drawer"]),
+    # a pronoun opening its own clause after "so (that)" stands for the thing before it (before: "no use for 'it'")
+    ("rope", "arrange the rope so that it closes the square", rope(0.9)),
+    ("rope", "arrange the rope so it closes the square", rope(0.9)),
+    # "stand ... up" is the pen's reorientation too, as the book's (before: "cannot honour 'up'")
+    ("pen", "stand the pen up in its holder", FIXED["pen"]),
+    # a little: the least the kb opens the drawer, 5 cm (before: "did not understand 'little'")
+    ("drawer", "pull out the drawer a little", drawer(0.05)),
+    ("drawer", "open the drawer slightly", drawer(0.05)),
+    ("drawer", "open the drawer a bit", drawer(0.05)),
 ])
 def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
     verdict, detail = judge(instruction, SCENES[scene], want)

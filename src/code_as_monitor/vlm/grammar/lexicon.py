@@ -23,7 +23,7 @@ sep       a separator between parts: ``then`` (then, after that, next, finally),
           ``:``, ``.``
 neg       a negation: not, never, without, except, but
 mod       a manner or end state: ``upright``, ``flat``, ``out``, ``in``, ``open``, ``closed``,
-          ``halfway``, ``fully``, ``tip_down``, ``level``, ``up``, ``down``
+          ``halfway``, ``slightly``, ``fully``, ``tip_down``, ``level``, ``up``, ``down``
 unit      a length unit, value in metres per unit
 angle     an angle unit after a number (degree, degrees, deg), value in degrees per unit
 pron      a pronoun: ``it`` (it, this, that), ``them`` (them, they, these, those)
@@ -218,7 +218,9 @@ MODIFIERS: dict[tuple[str, ...], str] = {
     ("flat",): "flat", ("lying", "down"): "flat", ("horizontally",): "flat", ("on", "its", "side"): "flat",
     ("lying",): "flat", ("out",): "out", ("outwards",): "out", ("open",): "open", ("opened",): "open",
     ("closed",): "closed", ("shut",): "closed", ("in",): "in", ("halfway",): "halfway",
-    ("half", "way"): "halfway", ("fully",): "fully", ("all", "the", "way"): "fully", ("completely",): "fully",
+    ("half", "way"): "halfway", ("slightly",): "slightly", ("a", "little"): "slightly",
+    ("a", "little", "bit"): "slightly", ("a", "bit"): "slightly", ("a", "crack"): "slightly", ("fully",): "fully",
+    ("all", "the", "way"): "fully", ("completely",): "fully",
     ("wide",): "fully", ("tip", "first"): "tip_down", ("tip", "down"): "tip_down", ("point", "first"): "tip_down",
     ("point", "down"): "tip_down", ("nib", "first"): "tip_down", ("nib", "down"): "tip_down",
     ("writing", "end", "down"): "tip_down", ("level",): "level", ("up",): "up", ("down",): "down",

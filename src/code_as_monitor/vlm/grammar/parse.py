@@ -286,7 +286,8 @@ class _Parser:
         for p in ps:  # pronouns
             if p.pronoun:
                 want_plural = p.pronoun == "them"
-                cands = [q for q in ps[: p.index] if not q.pronoun and q.segment != p.segment
+                subject = self._clause_subject(p)  # "arrange the rope so that it closes the square": the rope
+                cands = [q for q in ps[: p.index] if not q.pronoun and (q.segment != p.segment or subject)
                          and (q.plural == want_plural or not want_plural)]
                 objs = [q for q in cands if q.role == "object"]
                 pick = (objs or cands)[-1] if (objs or cands) else None
@@ -311,6 +312,15 @@ class _Parser:
                 others = [q.head for q in ps if q.head not in ("", "one")]
                 near = sorted(ps, key=lambda q: abs(q.index - p.index))
                 p.head = next((q.head for q in near if q.head not in ("", "one")), others[0] if others else "")
+
+    def _clause_subject(self, p: Phrase) -> bool:
+        """Whether pronoun phrase ``p`` opens a clause of its own as its subject: right after "so that", "so" or
+        "such that", with a verb right after it ("... so that it closes the square"). Such a pronoun may stand for a
+        phrase before it in its own part; an object pronoun may not ("put the block on it": not the block)."""
+        before = self.t[p.start - 1] if p.start > 0 else None
+        after = self.t[p.end] if p.end < len(self.t) else None
+        return (before is not None and before.kind == "filler" and before.text in ("so that", "so", "such that")
+                and after is not None and after.kind == "verb")
 
     def listings(self) -> list[Listing]:
         linked = {k.b for k in self.links} | {k.a for k in self.links if k.a is not None}

@@ -6,7 +6,7 @@ Family ``drawer`` ("open the drawer by pulling its handle"): ``grasp`` the cabin
 drawer out its opening plus ``PULL_MARGIN`` (then the gripper lets go) -> done.
 
 How far: ``DRAWER_OPEN`` (15 cm), or a length ("open the drawer 10 cm", "by 4 inches", "at least 8 cm": at
-least that far out), or "halfway" (12.5 cm, half the 25 cm travel), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's
+least that far out), "halfway" (12.5 cm, half the 25 cm travel) or "slightly" / "a little" / "a bit" (``MIN_OPEN``), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's
 ``min_open`` (its success check follows) and the pull checks' ``min_open``. Refused, naming the words: upper
 limits ("up to", "exactly": the pull is checked from below only), lengths out of range, two lengths, "fully"
 (a re-pull after a slip would run into the stop, see below). Elements, all points: the gripper's grasp
@@ -129,7 +129,7 @@ class DrawerGoal:
 
 
 VERBS = ("open", "pull", "slide", "grasp", "use")
-MODIFIERS = ("out", "open", "by_handle", "halfway")
+MODIFIERS = ("out", "open", "by_handle", "halfway", "slightly")
 HEADS = ("drawer", "cabinet", "handle")
 DOING = (f"opens the drawer by pulling its handle out along its rails, 15 cm or a length from "
          f"{MIN_OPEN * 100:.0f} to {MAX_OPEN * 100:.0f} cm")
@@ -176,13 +176,14 @@ def understand(ins: Instruction, objects: list[str]) -> DrawerGoal | None:
 
 
 def _opening(r: Reading) -> float:
-    """Metres the drawer must come out: a length, "halfway", or the default (the measures are marked used)."""
+    """Metres the drawer must come out: a length, "halfway", "slightly" (``MIN_OPEN``, the least the kb opens it), or
+    the default (the measures are marked used)."""
     ins = r.ins
-    halfway = "halfway" in ins.modifiers
-    if len(ins.measures) + halfway > 1:
+    halfway, slightly = "halfway" in ins.modifiers, "slightly" in ins.modifiers
+    if len(ins.measures) + halfway + slightly > 1:
         r.refuse("say one opening, e.g. 'open the drawer 10 cm'")
     if not ins.measures:
-        return round(DRAWER_TRAVEL / 2, 4) if halfway else DRAWER_OPEN
+        return round(DRAWER_TRAVEL / 2, 4) if halfway else MIN_OPEN if slightly else DRAWER_OPEN
     m = ins.measures[0]
     r.used_measures.add(0)
     if m.kind != "length":

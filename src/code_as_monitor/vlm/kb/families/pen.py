@@ -80,7 +80,7 @@ class PenGoal:
 
 
 VERBS = ("put", "insert", "drop", "stand", "pick", "grasp", "stow", "slide", "turn")
-MODIFIERS = ("tip_down", "upright", "down", "in")
+MODIFIERS = ("tip_down", "upright", "up", "down", "in")
 HEADS = ("pen", "holder", "pencil", "marker")
 DOING = "puts the pen into the pen holder, tip first"
 
