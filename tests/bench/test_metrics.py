@@ -138,6 +138,19 @@ def test_detection_recall_false_alarms_and_proactive_precision():
     assert d["proactive_precision"] == pytest.approx(0.5) and d["lead_median"] == pytest.approx(1.5)
 
 
+def test_a_reactive_alarm_a_rollout_confirms_is_not_false_and_not_a_proactive_figure():
+    """A reactive alarm whose halt came before any failure was logged gets a rollout (``bench.episode``): confirmed,
+    it is no false alarm; unconfirmed, it is one; neither enters proactive precision."""
+    recs = [_rec(0, False, alarms=[
+        {"t": 8.1, "proactive": False, "objects": ["block"], "cf": {"confirmed": True, "lead_s": 1.2}},
+        {"t": 9.0, "proactive": False, "objects": ["stick"], "cf": {"confirmed": False, "lead_s": None}},
+        {"t": 9.5, "proactive": True, "objects": ["cube"], "cf": {"confirmed": True, "lead_s": 0.5}},
+    ])]
+    d = detection(recs)
+    assert d["unmatched_per_ep"] == pytest.approx(1.0)  # the unconfirmed reactive one
+    assert (d["proactive_alarms"], d["proactive_confirmed"]) == (1, 1) and d["lead_median"] == pytest.approx(0.5)
+
+
 def test_old_and_new_rules_differ_where_the_issue_says():
     """v1 credited an alarm about another block and counted a drop that landed on its target; v2 does not."""
     recs = [

@@ -3,7 +3,8 @@
 ``cam`` runs through :func:`code_as_monitor.bench.closed_loop.run_closed_loop`; the baselines run
 here over the same simulator, planner and VLM backend. Proactive alarms of every method get a
 counterfactual rollout (:mod:`code_as_monitor.bench.counterfactual`) from inside the agent's
-``on_event("alarm")`` callback. An exception inside an episode is recorded (``error``), not raised,
+``on_event("alarm")`` callback, and so do reactive alarms that no logged failure explains when they fire
+(:func:`unexplained`). An exception inside an episode is recorded (``error``), not raised,
 so one broken cell never stops a sweep.
 """
 
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
+from code_as_monitor.bench.metrics import EARLY_S, FAILURE_KINDS, WINDOW_S, concerns
 from code_as_monitor.bench.protocol import Job, ablation_of, condition, episode_seed, is_cam
 from code_as_monitor.core.checks import check_fields, check_positive
 from code_as_monitor.core.errors import ConfigError
@@ -119,8 +121,29 @@ def _compact_gt(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
+def unexplained(alarm: dict[str, Any], events: list[dict[str, Any]]) -> bool:
+    """Whether a reactive ``alarm`` (an agent event with ``t`` and ``objects``) has no failure to detect in the
+    ground-truth ``events`` logged so far: none of :data:`~code_as_monitor.bench.metrics.FAILURE_KINDS` concerning
+    one of its objects within the matching window before it.
+
+    Such an alarm gets a counterfactual rollout too. The alarm halts the policy, and the RLBench-style tasks judge a
+    skill when it ends (``policy_failure``), so the halt can come before a failure it saw is ever logged: a block
+    caught on the drawer's front and pulled 5 cm out of the grip while it was lowered (put-in-drawer 1789404694,
+    the oracle tracker too) raised "block dropped", the halt came before the put-in skill's end, and nothing was
+    logged. Whether such an alarm was right is then what the proactive alarms' rule says, the same for every
+    method: the open-loop continuation ends with the task failed (that one's did not: the block went into the
+    drawer, so the alarm stays a false one)."""
+    if alarm.get("proactive"):
+        return False
+    t = float(alarm.get("t", 0.0))
+    return not any(e["kind"] in FAILURE_KINDS and t - WINDOW_S <= e["t"] <= t + EARLY_S
+                   and any(concerns(alarm, o) for o in (e.get("objects") or [e.get("obj", "")]))
+                   for e in events)
+
+
 class _Counterfactuals:
-    """``on_event`` hook: a rollout at every proactive alarm, attached to the alarm by index."""
+    """``on_event`` hook: a rollout at every proactive alarm and every :func:`unexplained` reactive one, attached
+    to the alarm by index."""
 
     def __init__(self, opts: EpisodeOptions) -> None:
         self.opts = opts
@@ -134,7 +157,8 @@ class _Counterfactuals:
         if ev.get("kind") != "alarm":
             return
         cf = None
-        if self.opts.counterfactual and ev.get("proactive") and self.env is not None:
+        if self.opts.counterfactual and self.env is not None and (
+                ev.get("proactive") or unexplained(ev, self.env.world.events.events)):
             cf = rollout(self.env, self.opts.horizon_s)
         self.results.append(cf)
 

@@ -46,10 +46,13 @@ the failures that matter: what would change the episode's outcome if nothing wer
   ``EARLY_S``). Reported as the median and the distribution (plots).
 - **False alarms per undisturbed episode**: alarms that detect no failure, concern no benign event, and are
   not confirmed by a counterfactual, per episode of the undisturbed condition. The same count per episode is
-  given for every cell (``unmatched_per_ep``).
-- **Proactive precision**: among proactive alarms that got a counterfactual rollout (``bench.counterfactual``:
-  save the world at the alarm, continue the open-loop plan without the monitor and without new
-  disturbances, restore), the fraction after which the continuation ended with the task failed: one rule for
+  given for every cell (``unmatched_per_ep``). Rollouts run at proactive alarms and at reactive ones that no
+  logged failure of their objects explains when they fire (``bench.episode.unexplained``: the halt may come
+  before a skill's own judgement would have logged the failure); records written before that have rollouts at
+  proactive alarms only.
+- **Proactive precision**: among proactive alarms (only those) that got a counterfactual rollout
+  (``bench.counterfactual``: save the world at the alarm, continue the open-loop plan without the monitor and
+  without new disturbances, restore), the fraction after which the continuation ended with the task failed: one rule for
   every task. **Lead time** = the rollout's first failure event (or the failed plan's end) - the alarm time
   (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to predict.
 
@@ -265,7 +268,7 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
         latencies += [x for x in lat if x is not None]
         for a, u in zip(alarms, used):
             cf = a.get("cf")
-            if cf is not None:
+            if cf is not None and a.get("proactive"):
                 pro_n += 1
                 if cf.get("confirmed"):
                     pro_ok += 1
