@@ -32,18 +32,22 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # jaws); upon, the grip at the grasp point (3 cm) and risen 5 cm with it.
     "drag_steady": {"max_disp": 0.02, "max_dist": 0.03},
     "drag_lifted": {"max_dist": 0.03, "min_rise": 0.05},
-    # drag, during: the grip stays within 4 cm of the grasp point until the cube is on the target (its centre
-    # within 4 cm of the target's, as ``ontarget``): the skill puts the stick down at its end, which is no drop
-    # once the cube is there (a stick-only check called every put-down a drop, also after a good drag).
-    "drag_gripped": {"max_dist": 0.04, "on_target": 0.04},
+    # drag, during: the grip stays within 4 cm of the grasp point until the cube is on the target (as ``ontarget``):
+    # the skill puts the stick down at its end, which is no drop once the cube is there (a stick-only check called
+    # every put-down a drop, also after a good drag).
+    "drag_gripped": {"max_dist": 0.04, "on_target": 0.047},
     # drag, during (proactive): once the shaft is low (its middle under 5 cm: on the table it is at 1.4 cm,
     # carried at 20 cm), the cube is ahead of it towards the target by at least 1.5 cm (the cube's and the
     # shaft's half widths, 2 + 1 cm, less a 1.5 cm slack for the painted points) and within the shaft's length,
     # 3 cm in from either end (more than the cube's half width), so the shaft catches it.
     "behind": {"low": 0.05, "min_ahead": 0.015, "end_margin": 0.03},
-    # drag, upon: the cube's centre within 4 cm of the target's centre (the target is 10 cm: its centre 1 cm
-    # inside the edge at the least, for a cube counted as on it).
-    "ontarget": {"max_dist": 0.04},
+    # drag, upon: the cube's centre inside the target's square, less 3 mm, along each of its sides (the target is a
+    # 10 cm square, and the task counts a cube whose centre is inside it; 3 mm is the point accuracy the perception
+    # is held to, the margin of the rope's check too). The first rule, a 4 cm circle (1 cm in from the edges at the
+    # least), called the cube of drag-stick 88559109 off the target (3.91 and -1.26 cm along the sides, 4.1 cm from
+    # the centre, on it by the task) and the put-down at the drag's end a drop, with both trackers; the square less
+    # 1 cm still read it 4.0x cm off with `depth`.
+    "ontarget": {"max_dist": 0.047},
 }
 
 
@@ -143,14 +147,14 @@ def drag(g: DragGoal) -> list[dict[str, Any]]:
     return [
         constraint(f"dragheld_{g.stick}", f"{nice(g.stick)} stays in the gripper (within {gr['max_dist'] * 100:.0f} cm "
                    f"of the grasp point) until {nice(g.cube)} is on {nice(g.target)} (its centre within "
-                   f"{gr['on_target'] * 100:.0f} cm of the target's)", "during", False, gr,
+                   f"{gr['on_target'] * 100:.1f} cm of the target's along each side)", "during", False, gr,
                    [GRIP_TIP, _grip(g.stick), whole(g.cube), _target(g.target)]),
         constraint(f"behind_{g.cube}", f"once {nice(g.stick)} is low (its shaft under {be['low'] * 100:.0f} cm), "
                    f"{nice(g.cube)} lies ahead of the shaft towards {nice(g.target)} (by {be['min_ahead'] * 100:.1f} cm "
                    f"or more) and within its length, so the shaft drags it along", "during", True, be,
                    [_shaft(g.stick), whole(g.cube), _target(g.target)]),
         constraint(f"ontarget_{g.cube}", f"{nice(g.cube)} is on {nice(g.target)}: its centre within "
-                   f"{on['max_dist'] * 100:.0f} cm of the target's centre", "upon", False, on,
+                   f"{on['max_dist'] * 100:.1f} cm of the target's centre along each of its sides", "upon", False, on,
                    [whole(g.cube), _target(g.target)]),
     ]
 
@@ -183,6 +187,18 @@ def behind(c: Spec) -> str:
     return check_fn(c, body)
 
 
+def _off_square(cu: int, tg: int, out: str) -> str:
+    """Lines setting ``out`` to the larger of the cube's offsets from the target's centre along the target's two
+    sides (the target surface's corners in boundary order: its first two edges)."""
+    return f"""    r = centroid(E[{cu}]) - centroid(E[{tg}])
+    s1 = E[{tg}][1] - E[{tg}][0]
+    s1 = s1 / (np.linalg.norm(s1) + 1e-9)
+    s2 = E[{tg}][2] - E[{tg}][1]
+    s2 = s2 - np.dot(s2, s1) * s1
+    s2 = s2 / (np.linalg.norm(s2) + 1e-9)
+    {out} = np.max([abs(np.dot(r, s1)), abs(np.dot(r, s2))])"""
+
+
 def dragheld(c: Spec) -> str:
     """Parts: [tip (point), grip (point), cube (point), target (surface)]. The grip is at the grasp point, or the
     cube is already on the target (the stick is put down at the end)."""
@@ -190,24 +206,25 @@ def dragheld(c: Spec) -> str:
     md, ot, sn = num(c["thresholds"]["max_dist"]), num(c["thresholds"]["on_target"]), obj_name(c, 1)
     body = f"""
     d = distance(E[{tip}], centroid(E[{gp}]))
-    on = horizontal_distance(centroid(E[{cu}]), centroid(E[{tg}]))
+{_off_square(cu, tg, "on")}
     margin = np.max([{md} - d, {ot} - on])
     if d <= {md} or on <= {ot}:
-        return True, {lit(sn + " is held (%.3f m from the grasp point) or the cube is on the target (%.3f m)")} % (d, on), margin
-    return False, {lit(sn + " dropped: it is %.3f m from the grasp point and the cube is %.3f m from the target")} % (d, on), margin
+        return True, {lit(sn + " is held (%.3f m from the grasp point) or the cube is on the target (%.3f m off its centre along a side)")} % (d, on), margin
+    return False, {lit(sn + " dropped: it is %.3f m from the grasp point and the cube is %.3f m off the target's centre along a side")} % (d, on), margin
 """
     return check_fn(c, body)
 
 
 def ontarget(c: Spec) -> str:
-    """Parts: [cube (point), target (surface)]. The cube's centre is near the target's centre."""
+    """Parts: [cube (point), target (surface)]. The cube's centre is near the target's centre along both of its
+    sides (the task's square, less a margin)."""
     cu, tg = c["element_ids"][:2]
     md, cn = num(c["thresholds"]["max_dist"]), obj_name(c, 0)
     body = f"""
-    d = horizontal_distance(centroid(E[{cu}]), centroid(E[{tg}]))
+{_off_square(cu, tg, "d")}
     if d <= {md}:
-        return True, {lit(cn + " is on the target (%.3f m from its centre)")} % d, {md} - d
-    return False, {lit(cn + " is not on the target: %.3f m from its centre (limit " + md + ")")} % d, {md} - d
+        return True, {lit(cn + " is on the target (%.3f m off its centre along a side)")} % d, {md} - d
+    return False, {lit(cn + " is not on the target: %.3f m off its centre along a side (limit " + md + ")")} % d, {md} - d
 """
     return check_fn(c, body)
 
