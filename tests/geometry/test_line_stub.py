@@ -15,52 +15,22 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from book_scene import CENTRE, book, off_vertical, paint_spine
 
-from code_as_monitor.core.camera import CameraModel
-from code_as_monitor.core.elements import ElementKind, ElementSpec, ElementSupport
-from code_as_monitor.geometry import rotation_about
-from code_as_monitor.geometry.backproject import backproject_mask
-from code_as_monitor.geometry.carve import CarveView
-from code_as_monitor.geometry.elements import LINE_MIN_ASPECT, build_element_from_clouds
-from code_as_monitor.geometry.raycast import Box, Plane, cast
-from code_as_monitor.geometry.support import support_plane
+from code_as_monitor.core.elements import ElementSupport
+from code_as_monitor.geometry.elements import LINE_MIN_ASPECT
+from code_as_monitor.geometry.raycast import Box
 
-W, H = 320, 240
-FRONT = CameraModel.look_at("front", np.array([1.15, 0.0, 0.65]), np.array([0.45, 0.0, 0.0]), W, H, 50.0)
-TOP = CameraModel.look_at("top", np.array([0.5, 0.0, 1.5]), np.array([0.5, 0.0, 0.0]), W, H, 50.0)
 VISIBLE = 0.028  # metres of the spine above the wall
 
 
 def _spine(wall: bool, yaw: float, noise_mm: float, seed: int = 0):
     """The spine's line element, the spine facing the front camera; ``wall``: a shelf wall hides all but its top."""
-    R = rotation_about([0.0, 0.0, 1.0], np.deg2rad(yaw))
-    c = np.array([0.5, 0.0, 0.1])
-    spine = Box(c + R @ np.array([0.055, 0.0, 0.0]), np.array([0.005, 0.012, 0.1]), R)
-    cover = Box(c + R @ np.array([-0.005, 0.0, 0.0]), np.array([0.055, 0.012, 0.1]), R)
-    table = Plane(0.0, (0.5, 0.0), (0.8, 0.8))
-    prims = [spine, cover, table]
+    R, prims = book(1.0, yaw)
     if wall:  # 2 mm thick, 5 mm in front of the spine's face, 30 cm wide, up to VISIBLE below the book's top
         h = 0.2 - VISIBLE
-        prims.append(Box(c + R @ np.array([0.066, 0.0, h / 2.0 - 0.1]), np.array([0.001, 0.15, h / 2.0]), R))
-    rng = np.random.default_rng(seed)
-    clouds, views, obs = [], [], []
-    for cam in (FRONT, TOP):
-        depth, index, _ = cast(prims, cam)
-        d = np.where(np.isfinite(depth), depth, 0.0)
-        if noise_mm > 0:
-            d = np.where(d > 0, d + rng.normal(0.0, noise_mm / 1000.0, d.shape), 0.0)
-        d = d.astype(np.float32)
-        mask = index == 0
-        clouds.append(backproject_mask(mask, d, cam, allow_empty=True))
-        views.append(CarveView(mask, d, cam, siblings=index == 1))
-        obs.append((d, cam))
-    spec = ElementSpec("book spine", "book", "spine", ElementKind.LINE)
-    return build_element_from_clouds(0, spec, clouds, views, support_plane(obs))
-
-
-def _off_vertical(points: np.ndarray) -> float:
-    d = points[1] - points[0]
-    return float(np.degrees(np.arccos(abs(d[2]) / np.linalg.norm(d))))
+        prims.append(Box(CENTRE + R @ np.array([0.066, 0.0, h / 2.0 - 0.1]), np.array([0.001, 0.15, h / 2.0]), R))
+    return paint_spine(prims, noise_mm, seed)
 
 
 @pytest.mark.parametrize("yaw,noise_mm,seed", [(0.0, 0.0, 0), (0.0, 2.0, 0), (0.0, 2.0, 1), (8.0, 2.0, 2),
@@ -78,7 +48,7 @@ def test_the_same_spine_seen_whole_is_vertical_and_sound(yaw, noise_mm):
     e = _spine(False, yaw, noise_mm)
     sup = e.support
     assert sup is not None
-    assert _off_vertical(e.points) < 2.0
+    assert off_vertical(e.points) < 2.0
     assert sup.direction_seen and not sup.weak(), sup
 
 
