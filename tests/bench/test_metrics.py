@@ -151,6 +151,23 @@ def test_a_reactive_alarm_a_rollout_confirms_is_not_false_and_not_a_proactive_fi
     assert (d["proactive_alarms"], d["proactive_confirmed"]) == (1, 1) and d["lead_median"] == pytest.approx(0.5)
 
 
+def test_a_second_alarm_about_a_detected_failure_is_neither_credited_nor_false():
+    """Table 2 pour-tea (b): the pot turned in the grasp, "not level" fired, and after the re-plan "not level" fired
+    again about the same perturbation (why the pot still read tilted was not determined). Each failure takes one
+    alarm; the second concerns the same failure in its window and is not a false alarm; one about another object,
+    or past the window, still is."""
+    pert = {"t": 3.0, "kind": "grasp_perturbed", "obj": "teapot"}
+    recs = [_rec(0, True, gt=[pert], alarms=[
+        {"t": 3.4, "proactive": False, "objects": ["teapot", "robot"]},
+        {"t": 5.4, "proactive": False, "objects": ["teapot"]},
+        {"t": 5.5, "proactive": False, "objects": ["teacup"]},
+        {"t": 8.5, "proactive": False, "objects": ["teapot"]},  # past the window: false
+    ])]
+    d = detection(recs)
+    assert (d["failures"], d["detected"], d["repeated_alarms"]) == (1, 1, 1)
+    assert d["unmatched_per_ep"] == pytest.approx(2.0)
+
+
 def test_old_and_new_rules_differ_where_the_issue_says():
     """v1 credited an alarm about another block and counted a drop that landed on its target; v2 does not."""
     recs = [

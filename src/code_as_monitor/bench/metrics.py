@@ -46,7 +46,10 @@ the failures that matter: what would change the episode's outcome if nothing wer
   ``EARLY_S``). Reported as the median and the distribution (plots).
 - **False alarms per undisturbed episode**: alarms that detect no failure, concern no benign event, and are
   not confirmed by a counterfactual, per episode of the undisturbed condition. The same count per episode is
-  given for every cell (``unmatched_per_ep``). Rollouts run at proactive alarms and at reactive ones that no
+  given for every cell (``unmatched_per_ep``). An alarm that another alarm's failure explains (it concerns that
+  failure's objects, in its window: a second "not level" about the same perturbation after a re-plan, the state
+  it reports still there) is neither credited nor false (``repeated_alarms`` counts them). Rollouts run at
+  proactive alarms and at reactive ones that no
   logged failure of their objects explains when they fire (``bench.episode.unexplained``: the halt may come
   before a skill's own judgement would have logged the failure); records written before that have rollouts at
   proactive alarms only.
@@ -251,7 +254,7 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
     unmatched = 0
     pro_n = pro_ok = 0
     leads: list[float] = []
-    n_alarms = n_benign = 0
+    n_alarms = n_benign = n_again = 0
     for r in records:
         alarms = r.get("alarms") or []
         gt = r.get("gt") or []
@@ -277,7 +280,12 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
             about_benign = any(b["t"] - EARLY_S <= a["t"] <= b["t"] + WINDOW_S
                                and any(concerns(a, o) for o in (b.get("objects") or [b.get("obj", "")]))
                                for b in harmless)
-            if not u and not (cf and cf.get("confirmed")) and not about_benign:
+            again = rule == "v2" and not u and any(  # another alarm about a failure already taken by one
+                f["t"] - EARLY_S <= a["t"] <= f["t"] + WINDOW_S
+                and any(concerns(a, o) for o in (f.get("objects") or [f.get("obj", "")])) for f in fails)
+            if again:
+                n_again += 1
+            if not u and not (cf and cf.get("confirmed")) and not about_benign and not again:
                 unmatched += 1
     n = len(records)
     return {
@@ -291,6 +299,7 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
         "latencies": latencies,
         "latency_median": float(np.median(latencies)) if latencies else float("nan"),
         "unmatched_per_ep": unmatched / n if n else float("nan"),
+        "repeated_alarms": n_again,
         "proactive_alarms": pro_n,
         "proactive_confirmed": pro_ok,
         "proactive_precision": pro_ok / pro_n if pro_n else float("nan"),
