@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from code_as_monitor.bench.counterfactual import DEFAULT_HORIZON_S, rollout
-from code_as_monitor.bench.metrics import EARLY_S, FAILURE_KINDS, WINDOW_S, concerns
+from code_as_monitor.bench.metrics import FAILURE_KINDS, about
 from code_as_monitor.bench.protocol import Job, ablation_of, condition, episode_seed, is_cam
 from code_as_monitor.core.checks import check_fields, check_positive
 from code_as_monitor.core.errors import ConfigError
@@ -133,12 +133,7 @@ def unexplained(alarm: dict[str, Any], events: list[dict[str, Any]]) -> bool:
     logged. Whether such an alarm was right is then what the proactive alarms' rule says, the same for every
     method: the open-loop continuation ends with the task failed (that one's did not: the block went into the
     drawer, so the alarm stays a false one)."""
-    if alarm.get("proactive"):
-        return False
-    t = float(alarm.get("t", 0.0))
-    return not any(e["kind"] in FAILURE_KINDS and t - WINDOW_S <= e["t"] <= t + EARLY_S
-                   and any(concerns(alarm, o) for o in (e.get("objects") or [e.get("obj", "")]))
-                   for e in events)
+    return not alarm.get("proactive") and not any(e["kind"] in FAILURE_KINDS and about(alarm, e) for e in events)
 
 
 class _Counterfactuals:

@@ -49,14 +49,13 @@ the failures that matter: what would change the episode's outcome if nothing wer
   given for every cell (``unmatched_per_ep``). An alarm that another alarm's failure explains (it concerns that
   failure's objects, in its window: a second "not level" about the same perturbation after a re-plan, the state
   it reports still there) is neither credited nor false (``repeated_alarms`` counts them). Rollouts run at
-  proactive alarms and at reactive ones that no
-  logged failure of their objects explains when they fire (``bench.episode.unexplained``: the halt may come
-  before a skill's own judgement would have logged the failure); records written before that have rollouts at
-  proactive alarms only.
+  proactive alarms and at reactive ones that no logged failure of their objects explains when they fire
+  (``bench.episode.unexplained``: the halt may come before a skill's own judgement would have logged the
+  failure); records written before that have rollouts at proactive alarms only.
 - **Proactive precision**: among proactive alarms (only those) that got a counterfactual rollout
   (``bench.counterfactual``: save the world at the alarm, continue the open-loop plan without the monitor and
-  without new disturbances, restore), the fraction after which the continuation ended with the task failed: one rule for
-  every task. **Lead time** = the rollout's first failure event (or the failed plan's end) - the alarm time
+  without new disturbances, restore), the fraction after which the continuation ended with the task failed: one
+  rule for every task. **Lead time** = the rollout's first failure event (or the failed plan's end) - the alarm time
   (median over confirmed ones). Precision only: a rollout cannot tell what a method failed to predict.
 
 :func:`detection_v1` keeps the first round's definitions (every drop and collapse a failure, no sweep failure,
@@ -209,6 +208,16 @@ def concerns(alarm: dict[str, Any], obj: str) -> bool:
     return obj in text or obj.replace("_", " ") in text
 
 
+def in_window(alarm: dict[str, Any], event: dict[str, Any]) -> bool:
+    """Whether ``alarm`` was raised in ``event``'s matching window ``[t - EARLY_S, t + WINDOW_S]``."""
+    return event["t"] - EARLY_S <= alarm["t"] <= event["t"] + WINDOW_S
+
+
+def about(alarm: dict[str, Any], event: dict[str, Any]) -> bool:
+    """Whether ``alarm`` is about ``event``: in its window, and concerning one of its ``objects`` (or its ``obj``)."""
+    return in_window(alarm, event) and any(concerns(alarm, o) for o in (event.get("objects") or [event.get("obj", "")]))
+
+
 def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]],
           same_object: bool = True) -> tuple[list[float | None], list[bool]]:
     """(latency per failure or None, matched flag per alarm), greedy earliest-first; with ``same_object`` an
@@ -218,11 +227,8 @@ def match(alarms: list[dict[str, Any]], fails: list[dict[str, Any]],
     order = sorted(range(len(alarms)), key=lambda i: alarms[i]["t"])
     for f in fails:
         hit = None
-        objs = f.get("objects") or [f.get("obj", "")]
         for i in order:
-            if used[i] or not f["t"] - EARLY_S <= alarms[i]["t"] <= f["t"] + WINDOW_S:
-                continue
-            if same_object and not any(concerns(alarms[i], o) for o in objs):
+            if used[i] or not (about(alarms[i], f) if same_object else in_window(alarms[i], f)):
                 continue
             hit = i
             break
@@ -277,12 +283,8 @@ def detection(records: list[dict[str, Any]], rule: str = "v2") -> dict[str, Any]
                     pro_ok += 1
                     if cf.get("lead_s") is not None:
                         leads.append(float(cf["lead_s"]))
-            about_benign = any(b["t"] - EARLY_S <= a["t"] <= b["t"] + WINDOW_S
-                               and any(concerns(a, o) for o in (b.get("objects") or [b.get("obj", "")]))
-                               for b in harmless)
-            again = rule == "v2" and not u and any(  # another alarm about a failure already taken by one
-                f["t"] - EARLY_S <= a["t"] <= f["t"] + WINDOW_S
-                and any(concerns(a, o) for o in (f.get("objects") or [f.get("obj", "")])) for f in fails)
+            about_benign = any(about(a, b) for b in harmless)
+            again = rule == "v2" and not u and any(about(a, f) for f in fails)  # a failure another alarm took
             if again:
                 n_again += 1
             if not u and not (cf and cf.get("confirmed")) and not about_benign and not again:

@@ -26,6 +26,10 @@ from code_as_monitor.vlm.kb.shared.feedback import failed_kind
 from code_as_monitor.vlm.kb.shared.grip import GRIP_TIP, in_gripper, part_spec
 from code_as_monitor.vlm.kb.shared.reading import Reading, scene_names
 
+ON_TARGET = 0.047
+"""Metres: the cube is on the target when its centre is this far from the target's at most along each of its
+sides (``ontarget``, and ``dragheld``'s "already there"; see ``THRESHOLDS``)."""
+
 THRESHOLDS: dict[str, dict[str, float]] = {
     # From sim/assets: the stick is 38 cm long (its shaft 30 cm, 2 cm thick), the cube 4 cm, the target a 10 cm
     # square. grasp: the stick stays put until gripped (2 cm: its 2.2 cm grip is then still between the
@@ -35,7 +39,7 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # drag, during: the grip stays within 4 cm of the grasp point until the cube is on the target (as ``ontarget``):
     # the skill puts the stick down at its end, which is no drop once the cube is there (a stick-only check called
     # every put-down a drop, also after a good drag).
-    "drag_gripped": {"max_dist": 0.04, "on_target": 0.047},
+    "drag_gripped": {"max_dist": 0.04, "on_target": ON_TARGET},
     # drag, during (proactive): once the shaft is low (its middle under 5 cm: on the table it is at 1.4 cm,
     # carried at 20 cm), the cube is ahead of it towards the target by at least 1.5 cm (the cube's and the
     # shaft's half widths, 2 + 1 cm, less a 1.5 cm slack for the painted points) and within the shaft's length,
@@ -47,7 +51,7 @@ THRESHOLDS: dict[str, dict[str, float]] = {
     # least), called the cube of drag-stick 88559109 off the target (3.91 and -1.26 cm along the sides, 4.1 cm from
     # the centre, on it by the task) and the put-down at the drag's end a drop, with both trackers; the square less
     # 1 cm still read it 4.0x cm off with `depth`.
-    "ontarget": {"max_dist": 0.047},
+    "ontarget": {"max_dist": ON_TARGET},
 }
 
 
