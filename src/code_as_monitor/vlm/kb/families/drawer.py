@@ -7,10 +7,9 @@ drawer out its opening plus ``PULL_MARGIN`` (then the gripper lets go) -> done.
 
 How far: ``DRAWER_OPEN`` (15 cm), or a length ("open the drawer 10 cm", "by 4 inches", "at least 8 cm": at
 least that far out), "halfway" (12.5 cm, half the 25 cm travel) or "slightly" / "a little" / "a bit"
-(``MIN_OPEN``), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's
-``min_open`` (its success check follows) and the pull checks' ``min_open``. Refused, naming the words: upper
-limits ("up to", "exactly": the pull is checked from below only), lengths out of range, two lengths, "fully"
-(a re-pull after a slip would run into the stop, see below). Elements, all points: the gripper's grasp
+(``MIN_OPEN``), from ``MIN_OPEN`` to ``MAX_OPEN``: the task's ``min_open`` (its success check follows) and the
+pull checks' ``min_open``. Refused, naming the words: upper limits ("up to", "exactly": the pull is checked from
+below only), lengths out of range, two lengths, "fully" (a re-pull after a slip would run into the stop, see below). Elements, all points: the gripper's grasp
 point (``robot/tip``), the handle bar's centre (``drawer_cabinet/handle``), the drawer front
 (``drawer_cabinet/drawer``) and the cabinet's body (``drawer_cabinet/frame``); the drawer's axis is the
 horizontal direction from the body to the drawer front, its travel is the handle's motion along that axis
