@@ -264,7 +264,16 @@ def test_the_sweep_scenes_pile_is_its_blocks(instruction):
     ("drawer", "pull out the drawer a little", drawer(0.05)),
     ("drawer", "open the drawer slightly", drawer(0.05)),
     ("drawer", "open the drawer a bit", drawer(0.05)),
+    ("drawer", "could you open the drawer just a little bit?", drawer(0.05)),  # "just" before no number: a filler
+    ("drawer", "open the drawer a tiny bit", drawer(0.05)),
+    ("stack", "just put the red block on the green block", tower("green", "red")),
 ])
 def test_these_phrasings_plan_the_task_not_a_refusal(scene: str, instruction: str, want: list) -> None:
     verdict, detail = judge(instruction, SCENES[scene], want)
     assert verdict == "right", detail
+
+
+def test_just_before_a_number_still_asks_for_exactly_that():
+    """"just 10 cm" is exactly 10 cm, which the kb cannot promise (it checks the opening from below only)."""
+    verdict, detail = judge("open the drawer just 10 cm", SCENES["drawer"], REFUSE)
+    assert verdict == "right" and "just 10 cm" in detail

@@ -219,7 +219,9 @@ MODIFIERS: dict[tuple[str, ...], str] = {
     ("lying",): "flat", ("out",): "out", ("outwards",): "out", ("open",): "open", ("opened",): "open",
     ("closed",): "closed", ("shut",): "closed", ("in",): "in", ("halfway",): "halfway",
     ("half", "way"): "halfway", ("slightly",): "slightly", ("a", "little"): "slightly",
-    ("a", "little", "bit"): "slightly", ("a", "bit"): "slightly", ("a", "crack"): "slightly", ("fully",): "fully",
+    ("a", "little", "bit"): "slightly", ("a", "bit"): "slightly", ("a", "crack"): "slightly",
+    ("a", "tiny", "bit"): "slightly", ("a", "little", "way"): "slightly", ("a", "touch"): "slightly",
+    ("fully",): "fully",
     ("all", "the", "way"): "fully", ("completely",): "fully",
     ("wide",): "fully", ("tip", "first"): "tip_down", ("tip", "down"): "tip_down", ("point", "first"): "tip_down",
     ("point", "down"): "tip_down", ("nib", "first"): "tip_down", ("nib", "down"): "tip_down",
@@ -258,8 +260,12 @@ OBJECT_OF: dict[str, frozenset[str]] = {
 """Canonical verb -> the concepts it can take as its object: where a pronoun has nothing before it to stand for,
 it stands for the one thing named after it that its verb can take (``parse._Parser.finish``)."""
 
+COMPARING_BEFORE_A_NUMBER_ONLY = {"just"}
+"""Comparators that compare only before a number ("just 10 cm": exactly); elsewhere they are fillers ("just open the
+drawer")."""
+
 FILLERS: set[tuple[str, ...]] = {
-    ("please",), ("kindly",), ("do",), ("just", "do"), ("now",), ("carefully",), ("gently",), ("robot",),
+    ("please",), ("kindly",), ("do",), ("just", "do"), ("just",), ("now",), ("carefully",), ("gently",), ("robot",),
     ("go", "ahead", "and"),
     ("can", "you"), ("could", "you"), ("would", "you"), ("will", "you"), ("you",), ("i", "want", "you", "to"),
     ("i", "would", "like", "you", "to"), ("i", "need", "you", "to"), ("i", "want"), ("i", "need"),

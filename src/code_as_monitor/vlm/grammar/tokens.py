@@ -137,7 +137,8 @@ def _single(word: str, prev: Token | None, nxt: str | None) -> Token:
     if (word,) in lx.QUANTIFIERS:
         return Token("quant", lx.QUANTIFIERS[(word,)], word)
     number_follows = nxt is not None and (re.fullmatch(r"\d+(\.\d+)?", nxt) is not None or nxt in lx.NUMBERS)
-    if (word,) in lx.COMPARATORS and (number_follows or word not in lx.PREPS):
+    if (word,) in lx.COMPARATORS and (number_follows or (word not in lx.PREPS
+                                                         and word not in lx.COMPARING_BEFORE_A_NUMBER_ONLY)):
         return Token("cmp", lx.COMPARATORS[(word,)], word)
     if word == "last":
         return Token("ord", -1, word)
